@@ -1,0 +1,12 @@
+# FindMETIS: the METIS graph partitioner. Defines METIS::METIS.
+find_path(METIS_INCLUDE_DIR NAMES metis.h)
+find_library(METIS_LIBRARY NAMES metis)
+include(FindPackageHandleStandardArgs)
+find_package_handle_standard_args(METIS REQUIRED_VARS METIS_INCLUDE_DIR METIS_LIBRARY)
+if(METIS_FOUND AND NOT TARGET METIS::METIS)
+  add_library(METIS::METIS INTERFACE IMPORTED)
+  set_target_properties(METIS::METIS PROPERTIES
+    INTERFACE_INCLUDE_DIRECTORIES "${METIS_INCLUDE_DIR}"
+    INTERFACE_LINK_LIBRARIES "${METIS_LIBRARY}")
+endif()
+mark_as_advanced(METIS_INCLUDE_DIR METIS_LIBRARY)

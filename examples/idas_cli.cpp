@@ -1,0 +1,600 @@
+// idas: the command-line tool.
+//
+//   idas info IN [--json]                      statistics and topology of a mesh file
+//   idas convert IN OUT [--ascii]              any supported format to any other
+//   idas demo IN OUT [--json] [--seed S] [--ops N] [--ascii]
+//                                              random local operations guarded by invariants
+//
+// Exit codes: 0 success; 2 bad input or usage; 1 any other failure. Errors go to stderr
+// and start with "idas: error: "; with --json, stdout holds exactly one JSON object.
+#include <idas/idas.hpp>
+#include <idas/io/io.hpp>
+
+#include <CLI/CLI.hpp>
+#include <fmt/core.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <charconv>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <exception>
+#include <limits>
+#include <new>
+#include <numbers>
+#include <optional>
+#include <random>
+#include <string>
+#include <vector>
+
+namespace {
+
+using json = nlohmann::ordered_json;
+using mesh_t = idas::tri_mesh<>;
+using tuple_t = mesh_t::tuple;
+using result_t = idas::op_result<tuple_t>;
+using idas::index_t;
+using idas::vec3;
+
+class stopwatch {
+public:
+    double seconds() const {
+        return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+    }
+
+private:
+    std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
+};
+
+// ---- statistics of a face list -------------------------------------------------------------
+
+struct min_mean_max {
+    double min = 0, mean = 0, max = 0;
+};
+
+/// Everything `info` reports. Geometry is computed from the face list itself, so it is
+/// available for non-manifold input too.
+struct mesh_stats {
+    idas::topology_report topo;
+    std::optional<long> genus; // orientable manifolds only
+    vec3 bbox_min, bbox_max;
+    double diagonal = 0;
+    min_mean_max edge_length;
+    double min_valence = 0, mean_valence = 0, max_valence = 0;
+    std::size_t interior_vertices = 0;
+    double valence6_fraction = 0; // of interior vertices
+    double min_angle_deg = 0, mean_min_angle_deg = 0;
+    std::size_t zero_area_faces = 0;
+};
+
+mesh_stats compute_stats(const idas::io::surface& s) {
+    mesh_stats st;
+    st.topo = idas::diagnose_topology(s.vertices.size(), s.faces);
+    const auto& t = st.topo;
+    if (t.editable()) {
+        // chi = 2C - 2g - b for an orientable surface with b boundary loops.
+        const long twice_g = 2 * static_cast<long>(t.components) - t.euler_characteristic -
+                             static_cast<long>(t.boundary_loops);
+        if (twice_g >= 0 && twice_g % 2 == 0) st.genus = twice_g / 2;
+    }
+
+    const std::size_t nv = s.vertices.size();
+    auto usable = [&](const idas::tri_indices& f) {
+        return f[0] < nv && f[1] < nv && f[2] < nv && f[0] != f[1] && f[1] != f[2] &&
+               f[0] != f[2];
+    };
+
+    // Bounding box of the referenced vertices (of all of them if no face is usable).
+    std::vector<char> used(nv, 0);
+    for (const auto& f : s.faces)
+        if (usable(f)) used[f[0]] = used[f[1]] = used[f[2]] = 1;
+    const bool any_used = std::find(used.begin(), used.end(), 1) != used.end();
+    constexpr double inf = std::numeric_limits<double>::infinity();
+    vec3 lo{inf, inf, inf}, hi{-inf, -inf, -inf};
+    for (std::size_t v = 0; v < nv; ++v) {
+        if (any_used && !used[v]) continue;
+        for (int k = 0; k < 3; ++k) {
+            lo[k] = std::min(lo[k], s.vertices[v][k]);
+            hi[k] = std::max(hi[k], s.vertices[v][k]);
+        }
+    }
+    if (nv > 0) st.bbox_min = lo, st.bbox_max = hi, st.diagonal = idas::norm(hi - lo);
+
+    // Undirected edges, each once, with the number of faces using it.
+    std::vector<std::uint64_t> keys;
+    keys.reserve(3 * s.faces.size());
+    for (const auto& f : s.faces) {
+        if (!usable(f)) continue;
+        for (int i = 0; i < 3; ++i) {
+            const index_t a = std::min(f[i], f[(i + 1) % 3]), b = std::max(f[i], f[(i + 1) % 3]);
+            keys.push_back(std::uint64_t{a} << 32 | b);
+        }
+    }
+    std::sort(keys.begin(), keys.end());
+    std::vector<std::uint32_t> valence(nv, 0);
+    std::vector<char> on_boundary(nv, 0);
+    double sum_len = 0;
+    std::size_t n_edges = 0;
+    st.edge_length.min = inf;
+    for (std::size_t i = 0; i < keys.size();) {
+        std::size_t j = i;
+        while (j < keys.size() && keys[j] == keys[i]) ++j;
+        const auto a = static_cast<index_t>(keys[i] >> 32);
+        const auto b = static_cast<index_t>(keys[i] & 0xffffffffu);
+        const double len = idas::norm(s.vertices[a] - s.vertices[b]);
+        st.edge_length.min = std::min(st.edge_length.min, len);
+        st.edge_length.max = std::max(st.edge_length.max, len);
+        sum_len += len, ++n_edges;
+        ++valence[a], ++valence[b];
+        if (j - i == 1) on_boundary[a] = on_boundary[b] = 1;
+        i = j;
+    }
+    if (n_edges > 0) st.edge_length.mean = sum_len / static_cast<double>(n_edges);
+    else st.edge_length.min = 0;
+
+    std::size_t n_ref = 0, n_val6 = 0;
+    double sum_val = 0;
+    st.min_valence = inf;
+    for (std::size_t v = 0; v < nv; ++v) {
+        if (valence[v] == 0) continue;
+        ++n_ref;
+        sum_val += valence[v];
+        st.min_valence = std::min(st.min_valence, double(valence[v]));
+        st.max_valence = std::max(st.max_valence, double(valence[v]));
+        if (!on_boundary[v]) {
+            ++st.interior_vertices;
+            n_val6 += valence[v] == 6 ? 1 : 0;
+        }
+    }
+    if (n_ref > 0) st.mean_valence = sum_val / static_cast<double>(n_ref);
+    else st.min_valence = 0;
+    if (st.interior_vertices > 0)
+        st.valence6_fraction = double(n_val6) / static_cast<double>(st.interior_vertices);
+
+    // Angles: atan2(|u x v|, u . v) is accurate for tiny and near-straight angles and
+    // gives 0 (not NaN) for zero-length edges.
+    constexpr double to_deg = 180.0 / std::numbers::pi;
+    double sum_min_angle = 0;
+    std::size_t n_faces = 0;
+    st.min_angle_deg = inf;
+    for (const auto& f : s.faces) {
+        if (!usable(f)) continue;
+        double face_min = inf;
+        for (int i = 0; i < 3; ++i) {
+            const vec3& p = s.vertices[f[i]];
+            const vec3 u = s.vertices[f[(i + 1) % 3]] - p, w = s.vertices[f[(i + 2) % 3]] - p;
+            face_min = std::min(face_min, std::atan2(idas::norm(idas::cross(u, w)), idas::dot(u, w)));
+        }
+        const vec3 n =
+            idas::cross(s.vertices[f[1]] - s.vertices[f[0]], s.vertices[f[2]] - s.vertices[f[0]]);
+        if (idas::squared_norm(n) == 0) ++st.zero_area_faces;
+        st.min_angle_deg = std::min(st.min_angle_deg, face_min * to_deg);
+        sum_min_angle += face_min * to_deg, ++n_faces;
+    }
+    if (n_faces > 0) st.mean_min_angle_deg = sum_min_angle / static_cast<double>(n_faces);
+    else st.min_angle_deg = 0;
+    return st;
+}
+
+json vec_json(const vec3& v) { return json::array({v.x, v.y, v.z}); }
+
+json stats_json(const mesh_stats& st) {
+    const auto& t = st.topo;
+    json j;
+    j["vertices"] = t.vertices;
+    j["faces"] = t.faces;
+    j["referenced_vertices"] = t.referenced_vertices;
+    j["edges"] = t.edges;
+    j["manifold"] = t.manifold();
+    j["nonmanifold_edges"] = t.nonmanifold_edges;
+    j["nonmanifold_vertices"] = t.nonmanifold_vertices;
+    j["degenerate_faces"] = t.degenerate_faces;
+    j["out_of_range_faces"] = t.out_of_range_faces;
+    j["oriented"] = t.oriented();
+    j["misoriented_edges"] = t.misoriented_edges;
+    j["editable"] = t.editable();
+    j["closed"] = t.closed();
+    j["boundary_edges"] = t.boundary_edges;
+    j["boundary_loops"] = t.boundary_loops;
+    j["components"] = t.components;
+    j["euler_characteristic"] = t.euler_characteristic;
+    j["genus"] = st.genus ? json(*st.genus) : json(nullptr);
+    j["problems"] = t.problems;
+    j["bounding_box"] = {
+        {"min", vec_json(st.bbox_min)}, {"max", vec_json(st.bbox_max)}, {"diagonal", st.diagonal}};
+    j["edge_length"] = {
+        {"min", st.edge_length.min}, {"mean", st.edge_length.mean}, {"max", st.edge_length.max}};
+    j["valence"] = {{"min", st.min_valence},
+                    {"mean", st.mean_valence},
+                    {"max", st.max_valence},
+                    {"interior_vertices", st.interior_vertices},
+                    {"interior_valence6_fraction", st.valence6_fraction}};
+    j["angles"] = {{"min_deg", st.min_angle_deg}, {"mean_min_deg", st.mean_min_angle_deg}};
+    j["zero_area_faces"] = st.zero_area_faces;
+    return j;
+}
+
+void print_stats(const mesh_stats& st) {
+    const auto& t = st.topo;
+    fmt::print("  vertices              {} ({} referenced)\n", t.vertices, t.referenced_vertices);
+    fmt::print("  faces                 {}\n", t.faces);
+    fmt::print("  edges                 {}\n", t.edges);
+    if (t.manifold()) {
+        fmt::print("  manifold              yes\n");
+    } else {
+        fmt::print("  manifold              NO: {} non-manifold edges, {} non-manifold vertices",
+                   t.nonmanifold_edges, t.nonmanifold_vertices);
+        if (t.degenerate_faces > 0) fmt::print(", {} degenerate faces", t.degenerate_faces);
+        fmt::print("\n");
+    }
+    if (t.oriented() && !t.manifold())
+        fmt::print("  oriented              consistently across its manifold edges\n");
+    else if (t.oriented()) fmt::print("  oriented              consistently\n");
+    else fmt::print("  oriented              NO: {} edges used twice in one direction\n",
+                    t.misoriented_edges);
+    if (t.closed()) fmt::print("  closed                yes\n");
+    else fmt::print("  closed                no: {} boundary edges, {} boundary loops\n",
+                    t.boundary_edges, t.boundary_loops);
+    fmt::print("  components            {}\n", t.components);
+    fmt::print("  Euler characteristic  {}", t.euler_characteristic);
+    if (st.genus) fmt::print(" (genus {})", *st.genus);
+    fmt::print("\n");
+    fmt::print("  editable              {}\n",
+               t.editable() ? "yes" : "no (not a consistently oriented 2-manifold)");
+    for (const auto& p : t.problems) fmt::print("    - {}\n", p);
+    fmt::print("  bounding box          [{:.6g}, {:.6g}, {:.6g}] .. [{:.6g}, {:.6g}, {:.6g}]\n",
+               st.bbox_min.x, st.bbox_min.y, st.bbox_min.z, st.bbox_max.x, st.bbox_max.y,
+               st.bbox_max.z);
+    fmt::print("  diagonal              {:.6g}\n", st.diagonal);
+    fmt::print("  edge length           min {:.6g}, mean {:.6g}, max {:.6g}\n", st.edge_length.min,
+               st.edge_length.mean, st.edge_length.max);
+    fmt::print("  valence               min {}, mean {:.3f}, max {}; valence 6: {:.1f}% of {} "
+               "interior vertices\n",
+               st.min_valence, st.mean_valence, st.max_valence, 100 * st.valence6_fraction,
+               st.interior_vertices);
+    fmt::print("  angles                min {:.3f} deg, mean per-face min {:.3f} deg\n",
+               st.min_angle_deg, st.mean_min_angle_deg);
+    if (st.zero_area_faces > 0) fmt::print("  zero-area faces       {}\n", st.zero_area_faces);
+}
+
+// ---- input and output ----------------------------------------------------------------------
+
+/// Reads a mesh file and refuses what no subcommand can use: no triangles at all, or
+/// non-finite coordinates.
+idas::io::surface load(const std::string& path) {
+    idas::io::surface s = idas::io::read_surface(path, idas::io::read_options{});
+    if (s.faces.empty()) throw idas::input_error(path + ": the file contains no triangles");
+    for (std::size_t v = 0; v < s.vertices.size(); ++v)
+        if (!idas::is_finite(s.vertices[v]))
+            throw idas::input_error(path + ": vertex " + std::to_string(v) +
+                                    " has a non-finite coordinate");
+    return s;
+}
+
+void save(const std::string& path, const idas::io::surface& s, bool ascii) {
+    idas::io::format_options options;
+    options.encoding = ascii ? idas::io::encoding::ascii : idas::io::encoding::binary;
+    idas::io::write_surface(path, s, options);
+}
+
+// ---- info ----------------------------------------------------------------------------------
+
+int run_info(const std::string& in, bool as_json) {
+    const stopwatch clock;
+    const idas::io::surface s = load(in);
+    const mesh_stats st = compute_stats(s);
+    if (as_json) {
+        json j;
+        j["file"] = in;
+        j.update(stats_json(st));
+        j["seconds"] = clock.seconds();
+        fmt::print("{}\n", j.dump(2));
+    } else {
+        fmt::print("{}\n", in);
+        print_stats(st);
+    }
+    return 0;
+}
+
+// ---- convert -------------------------------------------------------------------------------
+
+int run_convert(const std::string& in, const std::string& out, bool ascii) {
+    idas::io::format_of(out); // an unknown output extension fails before any reading
+    const idas::io::surface s = load(in);
+    save(out, s, ascii);
+    fmt::print("{}: {} vertices, {} faces written to {}\n", in, s.vertices.size(), s.faces.size(),
+               out);
+    return 0;
+}
+
+// ---- demo ----------------------------------------------------------------------------------
+
+std::size_t ring_size(const mesh_t& m, index_t v) {
+    boost::container::small_vector<index_t, 24> ring;
+    m.one_ring_vertices(v, ring);
+    return ring.size();
+}
+
+/// The demo's spec: every operation is checked by the link condition and by
+/// no_normal_flip; the hooks below add each kind's own acceptance rule and place the
+/// vertices it moves or creates.
+struct demo_spec {
+    double collapse_below = 0; // collapse only edges shorter than this
+
+    auto invariants() const {
+        return idas::invariant_set<idas::link_condition, idas::no_normal_flip>{};
+    }
+
+    // Split at the midpoint (computed on the old mesh, placed on the new vertex).
+    std::optional<vec3> before(idas::op::split_edge, const mesh_t& m, const tuple_t& t) const {
+        const auto [a, b] = m.edge_vertices(t);
+        return (m.position(a) + m.position(b)) * 0.5;
+    }
+    bool after(idas::op::split_edge, mesh_t& m, const result_t& r, const vec3& mid) const {
+        m.positions().set(r.anchor.vid, mid);
+        return true;
+    }
+
+    // Collapse short edges to their midpoint; a boundary vertex keeps its place so the
+    // boundary does not move inwards.
+    std::optional<vec3> before(idas::op::collapse_edge, const mesh_t& m, const tuple_t& t) const {
+        const auto [a, b] = m.edge_vertices(t);
+        const vec3 pa = m.position(a), pb = m.position(b);
+        if (!(idas::norm(pa - pb) < collapse_below)) return std::nullopt;
+        const bool ba = m.is_boundary_vertex(a), bb = m.is_boundary_vertex(b);
+        if (ba && !bb) return pa;
+        if (bb && !ba) return pb;
+        return (pa + pb) * 0.5;
+    }
+    bool after(idas::op::collapse_edge, mesh_t& m, const result_t& r, const vec3& p) const {
+        m.positions().set(r.anchor.vid, p);
+        return true;
+    }
+
+    // Swap only when the valences of the four vertices get closer to their ideal
+    // (6 inside, 4 on the boundary).
+    bool before(idas::op::swap_edge, const mesh_t& m, const tuple_t& t) const {
+        const auto [a, b] = m.edge_vertices(t);
+        const auto g = m.switch_face(t);
+        if (!g) return false;
+        const index_t c = m.opposite_vertex(t), d = m.opposite_vertex(*g);
+        auto deviation = [&](index_t v, long change) {
+            const long target = m.is_boundary_vertex(v) ? 4 : 6;
+            return std::abs(static_cast<long>(ring_size(m, v)) + change - target);
+        };
+        const long now = deviation(a, 0) + deviation(b, 0) + deviation(c, 0) + deviation(d, 0);
+        const long then = deviation(a, -1) + deviation(b, -1) + deviation(c, 1) + deviation(d, 1);
+        return then < now;
+    }
+
+    // Tangential smoothing: move an interior vertex towards the average of its one-ring,
+    // removing the component along the vertex normal so the surface keeps its shape.
+    std::optional<vec3> before(idas::op::smooth_vertex, const mesh_t& m, const tuple_t& t) const {
+        const index_t v = t.vid;
+        if (m.is_boundary_vertex(v)) return std::nullopt;
+        boost::container::small_vector<index_t, 24> ring;
+        m.one_ring_vertices(v, ring);
+        if (ring.empty()) return std::nullopt;
+        vec3 avg;
+        for (index_t w : ring) avg += m.position(w);
+        avg /= static_cast<double>(ring.size());
+        vec3 n;
+        for (index_t f : m.vertex_faces(v)) n += idas::face_normal_unnormalised(m, f);
+        const vec3 p = m.position(v);
+        vec3 step = avg - p;
+        if (const double nn = idas::squared_norm(n); nn > 0) step -= n * (idas::dot(step, n) / nn);
+        return p + step;
+    }
+    bool after(idas::op::smooth_vertex, mesh_t& m, const result_t& r, const vec3& p) const {
+        m.positions().set(r.anchor.vid, p);
+        return true;
+    }
+};
+
+/// A uniformly random live face; a few random probes, then a scan, so a mesh with many
+/// dead slots (or none alive) cannot stall the demo.
+std::optional<index_t> random_live_face(const mesh_t& m, std::mt19937_64& rng) {
+    const index_t slots = m.face_slots();
+    if (slots == 0) return std::nullopt;
+    for (int probe = 0; probe < 64; ++probe)
+        if (const auto f = static_cast<index_t>(rng() % slots); m.face_alive(f)) return f;
+    const auto start = static_cast<index_t>(rng() % slots);
+    for (index_t i = 0; i < slots; ++i)
+        if (const index_t f = (start + i) % slots; m.face_alive(f)) return f;
+    return std::nullopt;
+}
+
+struct op_counts {
+    std::size_t attempted = 0, accepted = 0;
+    std::size_t rejected() const { return attempted - accepted; }
+};
+
+int run_demo(const std::string& in, const std::string& out, bool as_json, std::uint64_t seed,
+             std::size_t n_ops, bool ascii) {
+    const stopwatch total;
+    json j;
+    j["input"] = in;
+    j["output"] = out;
+    j["seed"] = seed;
+    j["ops"] = n_ops;
+
+    stopwatch clock;
+    const idas::io::surface s = load(in);
+    const double t_read = clock.seconds();
+    const mesh_stats in_stats = compute_stats(s);
+
+    clock = {};
+    std::optional<mesh_t> built;
+    try {
+        built.emplace(s.vertices, s.faces);
+    } catch (const idas::input_error& e) {
+        throw idas::input_error(in + ": " + e.what());
+    }
+    mesh_t& m = *built;
+    const double t_build = clock.seconds();
+
+    if (!as_json) {
+        fmt::print("{}\n", in);
+        print_stats(in_stats);
+        fmt::print("running {} random operations (seed {})\n", n_ops, seed);
+    }
+
+    // Random operations: pick a kind, then a random live face and a corner or edge of it.
+    clock = {};
+    demo_spec spec{in_stats.edge_length.mean};
+    std::mt19937_64 rng(seed);
+    op_counts counts[4];
+    auto& ctx = idas::thread_context<mesh_t>();
+    for (std::size_t i = 0; i < n_ops; ++i) {
+        const auto kind = static_cast<int>(rng() % 4);
+        const std::optional<index_t> f = random_live_face(m, rng);
+        if (!f) break; // nothing left to edit
+        const auto le = static_cast<std::uint8_t>(rng() % 3);
+        const tuple_t t = m.tuple_from_edge(*f, le);
+        bool ok = false;
+        switch (kind) {
+        case 0: ok = idas::split_edge(m, t, spec, ctx).has_value(); break;
+        case 1: ok = idas::collapse_edge(m, t, spec, ctx).has_value(); break;
+        case 2: ok = idas::swap_edge(m, t, spec, ctx).has_value(); break;
+        default: ok = idas::smooth_vertex(m, t, spec, ctx).has_value(); break;
+        }
+        ++counts[kind].attempted;
+        counts[kind].accepted += ok ? 1 : 0;
+    }
+    const double t_ops = clock.seconds();
+
+    // A broken mesh here would be a library bug, not bad input: report it as a failure.
+    clock = {};
+    if (const auto problem = idas::find_inconsistency(m))
+        throw std::runtime_error("the edited mesh is inconsistent: " + *problem);
+    const double t_validate = clock.seconds();
+
+    clock = {};
+    idas::io::surface result;
+    std::tie(result.vertices, result.faces) = m.to_arrays();
+    save(out, result, ascii);
+    const double t_write = clock.seconds();
+    const mesh_stats out_stats = compute_stats(result);
+
+    static constexpr const char* names[4] = {"split", "collapse", "swap", "smooth"};
+    if (as_json) {
+        j["input_stats"] = stats_json(in_stats);
+        j["output_stats"] = stats_json(out_stats);
+        json ops = json::object();
+        for (int k = 0; k < 4; ++k)
+            ops[names[k]] = {{"attempted", counts[k].attempted},
+                             {"accepted", counts[k].accepted},
+                             {"rejected", counts[k].rejected()}};
+        j["operations"] = ops;
+        j["seconds"] = {{"read", t_read},
+                        {"build", t_build},
+                        {"operations", t_ops},
+                        {"validate", t_validate},
+                        {"write", t_write},
+                        {"total", total.seconds()}};
+        fmt::print("{}\n", j.dump(2));
+    } else {
+        fmt::print("operations              attempted  accepted  rejected\n");
+        for (int k = 0; k < 4; ++k)
+            fmt::print("  {:<20} {:>9} {:>9} {:>9}\n", names[k], counts[k].attempted,
+                       counts[k].accepted, counts[k].rejected());
+        fmt::print("{}\n", out);
+        print_stats(out_stats);
+        fmt::print("time: read {:.3f} s, build {:.3f} s, operations {:.3f} s, validate {:.3f} s, "
+                   "write {:.3f} s, total {:.3f} s\n",
+                   t_read, t_build, t_ops, t_validate, t_write, total.seconds());
+    }
+    return 0;
+}
+
+// ---- main ----------------------------------------------------------------------------------
+
+int error(int code, const std::string& message) {
+    std::fflush(stdout);
+    std::fprintf(stderr, "idas: error: %s\n", message.c_str());
+    return code;
+}
+
+/// Unsigned options would silently wrap "-1" around; accept plain digits only.
+const CLI::Validator unsigned_integer(
+    [](std::string& text) -> std::string {
+        std::uint64_t value = 0;
+        const char* last = text.data() + text.size();
+        const auto [end, ec] = std::from_chars(text.data(), last, value);
+        if (text.empty() || ec != std::errc() || end != last)
+            return "'" + text + "' is not a non-negative integer";
+        return {};
+    },
+    "");
+
+int run(int argc, char** argv) {
+    CLI::App app{"idas: inspect, convert and edit triangle meshes (OBJ, OFF, PLY, STL)", "idas"};
+    app.require_subcommand(1);
+
+    std::string in, out;
+    bool as_json = false, ascii = false;
+    std::uint64_t seed = 1;
+    std::size_t n_ops = 2000;
+
+    auto* info = app.add_subcommand("info", "Print statistics and topology of a mesh");
+    info->add_option("IN", in, "input mesh file")->required();
+    info->add_flag("--json", as_json, "print one JSON object instead of text");
+
+    auto* convert = app.add_subcommand("convert", "Convert a mesh between file formats");
+    convert->add_option("IN", in, "input mesh file")->required();
+    convert->add_option("OUT", out, "output mesh file; the extension picks the format")
+        ->required();
+    convert->add_flag("--ascii", ascii, "write PLY and STL as text instead of binary");
+
+    auto* demo = app.add_subcommand(
+        "demo", "Run random splits, collapses, swaps and smoothing guarded by invariants");
+    demo->add_option("IN", in, "input mesh file (an orientable 2-manifold)")->required();
+    demo->add_option("OUT", out, "output mesh file")->required();
+    demo->add_flag("--json", as_json, "print one JSON object instead of text");
+    demo->add_option("--seed", seed, "random seed")
+        ->check(unsigned_integer)
+        ->capture_default_str();
+    demo->add_option("--ops", n_ops, "number of operations to attempt")
+        ->check(unsigned_integer)
+        ->capture_default_str();
+    demo->add_flag("--ascii", ascii, "write PLY and STL as text instead of binary");
+
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::CallForHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::CallForAllHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::ParseError& e) {
+        std::string message = e.what();
+        if (app.get_subcommands().empty() && !app.remaining().empty())
+            message = "unknown subcommand '" + app.remaining().front() + "'";
+        return error(2, message + " (run 'idas --help' for usage)");
+    }
+
+    if (info->parsed()) return run_info(in, as_json);
+    if (convert->parsed()) return run_convert(in, out, ascii);
+    return run_demo(in, out, as_json, seed, n_ops, ascii);
+}
+
+} // namespace
+
+int main(int argc, char** argv) {
+    int code = 0;
+    try {
+        code = run(argc, argv);
+    } catch (const idas::input_error& e) {
+        return error(2, e.what());
+    } catch (const std::bad_alloc&) {
+        return error(1, "out of memory");
+    } catch (const std::exception& e) {
+        return error(1, e.what());
+    } catch (...) {
+        return error(1, "unknown failure");
+    }
+    // Output that never reached stdout (closed pipe, full disk) is a failure too.
+    if (std::fflush(stdout) != 0 || std::ferror(stdout)) return error(1, "cannot write to stdout");
+    return code;
+}

@@ -1,0 +1,61 @@
+// No face may turn over: each new face's normal must point the same way as the normal
+// of the face it came from. Also refuses faces of zero area.
+#pragma once
+
+#include <idas/core/types.hpp>
+#include <idas/ops/operation.hpp>
+
+#include <boost/container/small_vector.hpp>
+
+#include <algorithm>
+
+namespace idas {
+
+template <class Mesh>
+vec3 face_normal_unnormalised(const Mesh& m, index_t f) {
+    const auto& fv = m.face_vertices(f);
+    const auto p = m.positions();
+    return cross(p[fv[1]] - p[fv[0]], p[fv[2]] - p[fv[0]]);
+}
+
+struct no_normal_flip {
+    struct state {
+        boost::container::small_vector<std::pair<index_t, vec3>, 48> normals;
+    };
+
+    template <class Op, class Mesh>
+    bool before(Op, const Mesh& m, const typename Mesh::tuple& t, state& s) const {
+        auto remember = [&](index_t f) {
+            for (const auto& [g, n] : s.normals)
+                if (g == f) return;
+            s.normals.push_back({f, face_normal_unnormalised(m, f)});
+        };
+        if constexpr (std::is_same_v<Op, op::smooth_vertex>) {
+            for (index_t f : m.vertex_faces(t.vid)) remember(f);
+        } else if constexpr (std::is_same_v<Op, op::collapse_edge>) {
+            const auto [a, b] = m.edge_vertices(t);
+            for (index_t f : m.vertex_faces(a)) remember(f);
+            for (index_t f : m.vertex_faces(b)) remember(f);
+        } else {
+            remember(t.fid);
+            if (auto g = m.switch_face(t)) remember(g->fid);
+        }
+        return true;
+    }
+
+    template <class Op, class Mesh, class Result>
+    bool after(Op, const Mesh& m, const Result& r, state& s) const {
+        for (std::size_t i = 0; i < r.cells.size(); ++i) {
+            const index_t origin = r.origins[i];
+            const auto it = std::find_if(s.normals.begin(), s.normals.end(),
+                                         [&](const auto& e) { return e.first == origin; });
+            if (it == s.normals.end()) continue;
+            if (!(dot(face_normal_unnormalised(m, r.cells[i].fid), it->second) > 0)) return false;
+        }
+        return true;
+    }
+};
+
+static_assert(invariant<no_normal_flip>);
+
+} // namespace idas

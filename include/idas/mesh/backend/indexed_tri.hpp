@@ -1,0 +1,213 @@
+// The paper's indexed connectivity for triangle meshes: each face stores its three
+// vertices, each vertex the faces incident to it. switch_face searches a vertex star.
+#pragma once
+
+#include <idas/core/concepts.hpp>
+#include <idas/core/types.hpp>
+
+#include <boost/container/small_vector.hpp>
+
+#include <algorithm>
+#include <cassert>
+#include <span>
+#include <vector>
+
+namespace idas::backend {
+
+class indexed_tri {
+public:
+    /// One reversible change. Undone newest-first, so each entry only has to restore
+    /// what it changed itself.
+    struct undo_entry {
+        enum class what : std::uint8_t {
+            face_set, face_added, vertex_added, vertex_removed, vertex_reused, vf_insert, vf_erase, free_face_pushed,
+            free_face_popped
+        };
+        what kind;
+        index_t a = 0, b = 0, c = 0; // face or vertex; vf: vertex, face, position
+        tri_indices verts{};
+        version_t version = 0;
+    };
+    using undo_log = std::vector<undo_entry>;
+
+    // Inline capacity covers the valences met in practice (a regular vertex has 6), so
+    // incidence lists rarely touch the heap.
+    using face_list = boost::container::small_vector<index_t, 10>;
+
+    indexed_tri() = default;
+
+    void build(index_t n_vertices, const std::vector<tri_indices>& faces) {
+        fv_ = faces;
+        version_.assign(faces.size(), 0);
+        vf_.assign(n_vertices, {});
+        valive_.assign(n_vertices, 1);
+        free_faces_.clear(), free_vertices_.clear();
+        for (index_t f = 0; f < faces.size(); ++f)
+            for (index_t v : faces[f]) vf_[v].push_back(f);
+    }
+    void reserve(index_t vertices, index_t faces) {
+        fv_.reserve(faces), version_.reserve(faces), vf_.reserve(vertices), valive_.reserve(vertices);
+    }
+
+    index_t vertex_slots() const noexcept { return static_cast<index_t>(vf_.size()); }
+    index_t face_slots() const noexcept { return static_cast<index_t>(fv_.size()); }
+    bool vertex_alive(index_t v) const noexcept { return valive_[v] != 0; }
+    bool face_alive(index_t f) const noexcept { return fv_[f][0] != invalid_index; }
+    const tri_indices& face_vertices(index_t f) const noexcept { return fv_[f]; }
+    version_t face_version(index_t f) const noexcept { return version_[f]; }
+    std::span<const index_t> vertex_faces(index_t v) const noexcept { return {vf_[v].data(), vf_[v].size()}; }
+
+    /// The face across local edge `le` of `f`, or invalid_index on the boundary.
+    index_t opposite_face(index_t f, std::uint8_t le) const noexcept {
+        const index_t x = fv_[f][(le + 1) % 3], y = fv_[f][(le + 2) % 3];
+        for (index_t g : vf_[x]) {
+            if (g == f) continue;
+            const auto& gv = fv_[g];
+            if (gv[0] == y || gv[1] == y || gv[2] == y) return g;
+        }
+        return invalid_index;
+    }
+
+    std::size_t memory_bytes() const noexcept {
+        std::size_t bytes = fv_.capacity() * sizeof(tri_indices) + version_.capacity() * sizeof(version_t) +
+                            vf_.capacity() * sizeof(face_list) + valive_.capacity();
+        for (const auto& l : vf_)
+            if (l.capacity() > 10) bytes += l.capacity() * sizeof(index_t);
+        return bytes;
+    }
+
+    // ---- journaled mutation ----
+
+    // Dead slots are recycled (newest first), so a long run of splits and collapses
+    // keeps the arrays at a steady size instead of growing without bound. A recycled
+    // face slot keeps counting versions, so old tuples to it stay stale.
+    index_t add_vertex(undo_log& log) {
+        if (!free_vertices_.empty()) {
+            const index_t v = free_vertices_.back();
+            free_vertices_.pop_back();
+            valive_[v] = 1;
+            log.push_back({undo_entry::what::vertex_reused, v});
+            return v;
+        }
+        vf_.emplace_back();
+        valive_.push_back(1);
+        const index_t v = vertex_slots() - 1;
+        log.push_back({undo_entry::what::vertex_added, v});
+        return v;
+    }
+    void remove_vertex(index_t v, undo_log& log) {
+        assert(vf_[v].empty());
+        valive_[v] = 0;
+        free_vertices_.push_back(v);
+        log.push_back({undo_entry::what::vertex_removed, v});
+    }
+    index_t add_face(const tri_indices& f, undo_log& log) {
+        index_t id;
+        if (!free_faces_.empty()) {
+            id = free_faces_.back();
+            free_faces_.pop_back();
+            log.push_back({undo_entry::what::free_face_popped, id});
+            save_face(id, log);
+            fv_[id] = f;
+            ++version_[id];
+        } else {
+            fv_.push_back(f);
+            version_.push_back(0);
+            id = face_slots() - 1;
+            log.push_back({undo_entry::what::face_added, id});
+        }
+        for (index_t v : f) vf_insert(v, id, log);
+        return id;
+    }
+    void remove_face(index_t f, undo_log& log) {
+        save_face(f, log);
+        for (index_t v : fv_[f]) vf_erase(v, f, log);
+        fv_[f] = {invalid_index, invalid_index, invalid_index};
+        ++version_[f];
+        free_faces_.push_back(f);
+        log.push_back({undo_entry::what::free_face_pushed, f});
+    }
+    /// Rewrites a face in place (same slot, new version).
+    void set_face(index_t f, const tri_indices& nv, undo_log& log) {
+        save_face(f, log);
+        const tri_indices old = fv_[f];
+        for (index_t v : old)
+            if (!contains(nv, v)) vf_erase(v, f, log);
+        for (index_t v : nv)
+            if (!contains(old, v)) vf_insert(v, f, log);
+        fv_[f] = nv;
+        ++version_[f];
+    }
+    /// Marks a face changed (its geometry moved) so tuples made before go stale.
+    void touch_face(index_t f, undo_log& log) {
+        save_face(f, log);
+        ++version_[f];
+    }
+
+    void rollback(undo_log& log, std::size_t mark) {
+        using w = undo_entry::what;
+        while (log.size() > mark) {
+            const undo_entry e = log.back();
+            log.pop_back();
+            switch (e.kind) {
+            case w::face_set: fv_[e.a] = e.verts, version_[e.a] = e.version; break;
+            case w::face_added:
+                assert(e.a + 1 == fv_.size());
+                fv_.pop_back(), version_.pop_back();
+                break;
+            case w::vertex_added:
+                assert(e.a + 1 == vf_.size());
+                vf_.pop_back(), valive_.pop_back();
+                break;
+            case w::vertex_removed:
+                valive_[e.a] = 1;
+                free_vertices_.pop_back();
+                break;
+            case w::vertex_reused:
+                valive_[e.a] = 0;
+                free_vertices_.push_back(e.a);
+                break;
+            case w::free_face_pushed: free_faces_.pop_back(); break;
+            case w::free_face_popped: free_faces_.push_back(e.a); break;
+            case w::vf_insert:
+                assert(!vf_[e.a].empty() && vf_[e.a].back() == e.b);
+                vf_[e.a].pop_back();
+                break;
+            case w::vf_erase: vf_[e.a].insert(vf_[e.a].begin() + e.c, e.b); break;
+            }
+        }
+    }
+
+    friend bool operator==(const indexed_tri& x, const indexed_tri& y) {
+        return x.fv_ == y.fv_ && x.version_ == y.version_ && x.valive_ == y.valive_ && x.vf_ == y.vf_ &&
+               x.free_faces_ == y.free_faces_ && x.free_vertices_ == y.free_vertices_;
+    }
+
+private:
+    static bool contains(const tri_indices& f, index_t v) noexcept { return f[0] == v || f[1] == v || f[2] == v; }
+    void save_face(index_t f, undo_log& log) {
+        log.push_back({undo_entry::what::face_set, f, 0, 0, fv_[f], version_[f]});
+    }
+    void vf_insert(index_t v, index_t f, undo_log& log) {
+        vf_[v].push_back(f);
+        log.push_back({undo_entry::what::vf_insert, v, f});
+    }
+    void vf_erase(index_t v, index_t f, undo_log& log) {
+        auto& l = vf_[v];
+        auto it = std::find(l.begin(), l.end(), f);
+        assert(it != l.end());
+        const auto pos = static_cast<index_t>(it - l.begin());
+        l.erase(it); // order-preserving, so the undo restores the list exactly
+        log.push_back({undo_entry::what::vf_erase, v, f, pos});
+    }
+
+    std::vector<tri_indices> fv_;
+    std::vector<version_t> version_;
+    std::vector<face_list> vf_;
+    std::vector<std::uint8_t> valive_;
+    std::vector<index_t> free_faces_, free_vertices_;
+};
+
+static_assert(tri_connectivity<indexed_tri>);
+
+} // namespace idas::backend

@@ -1,0 +1,208 @@
+// What every local operation shares: operation kinds as types, the per-thread
+// operation context (undo logs, scratch buffers), the spec's hooks and the
+// invariant machinery, and the transaction that commits or rolls back.
+#pragma once
+
+#include <idas/core/attribute.hpp>
+#include <idas/core/tuple.hpp>
+
+#include <concepts>
+#include <cstdint>
+#include <optional>
+#include <span>
+#include <tuple>
+#include <type_traits>
+#include <vector>
+
+namespace idas {
+
+/// Operation kinds are types; `id` is what a scheduler queue entry stores.
+namespace op {
+struct split_edge { static constexpr std::uint8_t id = 0; };
+struct collapse_edge { static constexpr std::uint8_t id = 1; };
+struct swap_edge { static constexpr std::uint8_t id = 2; };
+struct smooth_vertex { static constexpr std::uint8_t id = 3; };
+} // namespace op
+
+template <class Op>
+concept operation_kind = requires { { Op::id } -> std::convertible_to<std::uint8_t>; };
+
+/// What an operation created: an anchor tuple (documented per operation) and the faces
+/// (or tets) that are new or changed, each with the old simplex it came from.
+template <class Tuple>
+struct op_result {
+    Tuple anchor;
+    std::span<const Tuple> cells;
+    std::span<const index_t> origins;
+};
+
+/// Per-thread state of running operations: reused buffers, so steady-state operations
+/// allocate nothing.
+template <class Mesh>
+struct op_context {
+    typename Mesh::undo_log conn;
+    attribute_journal attrs;
+    std::vector<typename Mesh::tuple> cells;
+    std::vector<index_t> origins;
+    std::vector<index_t> scratch;
+
+    op_context() {
+        conn.reserve(256), cells.reserve(64), origins.reserve(64), scratch.reserve(64);
+    }
+};
+
+/// Opens an undo scope on `ctx`; destroys as a rollback unless committed.
+template <class Mesh>
+class transaction {
+public:
+    transaction(Mesh& m, op_context<Mesh>& ctx)
+        : m_(m), ctx_(ctx), conn_mark_(ctx.conn.size()), attr_mark_(ctx.attrs.mark()),
+          previous_(detail::active_attribute_journal) {
+        detail::active_attribute_journal = &ctx.attrs;
+    }
+    transaction(const transaction&) = delete;
+    transaction& operator=(const transaction&) = delete;
+    ~transaction() {
+        if (!done_) rollback();
+    }
+    void commit() {
+        ctx_.conn.resize(conn_mark_);
+        ctx_.attrs.truncate(attr_mark_);
+        finish();
+    }
+    void rollback() {
+        m_.rollback(ctx_.conn, conn_mark_);
+        ctx_.attrs.rollback(attr_mark_, m_.attributes().columns());
+        finish();
+    }
+
+private:
+    void finish() {
+        detail::active_attribute_journal = previous_;
+        done_ = true;
+    }
+    Mesh& m_;
+    op_context<Mesh>& ctx_;
+    std::size_t conn_mark_, attr_mark_;
+    attribute_journal* previous_;
+    bool done_ = false;
+};
+
+// ---------------------------------------------------------------------------------
+// The spec's hooks. All are optional; each is detected at compile time.
+//   before(Op, const Mesh&, tuple)                -> bool or std::optional<Cache>
+//   after(Op, Mesh&, const op_result&[, Cache&])  -> bool
+//   invariants()                                  -> invariant_set<...>
+// ---------------------------------------------------------------------------------
+
+struct no_cache {};
+
+namespace detail {
+
+template <class T> struct is_optional : std::false_type {};
+template <class T> struct is_optional<std::optional<T>> : std::true_type {};
+
+/// Runs spec.before and normalises its answer to std::optional<Cache>.
+template <class Op, class Spec, class Mesh, class Tuple>
+auto run_before(Spec& spec, const Mesh& m, const Tuple& t) {
+    if constexpr (requires { spec.before(Op{}, m, t); }) {
+        using R = decltype(spec.before(Op{}, m, t));
+        if constexpr (is_optional<R>::value) {
+            return spec.before(Op{}, m, t);
+        } else {
+            static_assert(std::convertible_to<R, bool>, "before() must return bool or std::optional<Cache>");
+            return spec.before(Op{}, m, t) ? std::optional<no_cache>(no_cache{}) : std::nullopt;
+        }
+    } else {
+        return std::optional<no_cache>(no_cache{});
+    }
+}
+
+template <class Op, class Spec, class Mesh, class Result, class Cache>
+bool run_after(Spec& spec, Mesh& m, const Result& r, Cache& cache) {
+    if constexpr (requires { { spec.after(Op{}, m, r, cache) } -> std::convertible_to<bool>; })
+        return spec.after(Op{}, m, r, cache);
+    else if constexpr (requires { { spec.after(Op{}, m, r) } -> std::convertible_to<bool>; })
+        return spec.after(Op{}, m, r);
+    else
+        return true;
+}
+
+} // namespace detail
+
+// ---------------------------------------------------------------------------------
+// Invariants: types with optional
+//   bool before(Op, const Mesh&, tuple, state&)   checked on the old mesh
+//   bool after(Op, const Mesh&, const op_result&, state&)  checked on the new cells
+// `state` is per operation (on the stack), so invariants are stateless and thread-safe.
+// ---------------------------------------------------------------------------------
+
+template <class I>
+concept invariant = std::copy_constructible<I> && std::default_initializable<typename I::state>;
+
+template <class I, class Op, class Mesh>
+concept invariant_for =
+    invariant<I> && (requires(const I& inv, const Mesh& m, typename I::state& s, typename Mesh::tuple t) {
+        { inv.before(Op{}, m, t, s) } -> std::convertible_to<bool>;
+    } || requires(const I& inv, const Mesh& m, typename I::state& s, op_result<typename Mesh::tuple> r) {
+        { inv.after(Op{}, m, r, s) } -> std::convertible_to<bool>;
+    });
+
+/// Compile-time conjunction of invariants, checked in order; the first failure stops.
+template <invariant... Is>
+class invariant_set {
+public:
+    using states = std::tuple<typename Is::state...>;
+
+    constexpr invariant_set() = default;
+    template <class... Args>
+        requires(sizeof...(Args) == sizeof...(Is) && sizeof...(Is) > 0)
+    constexpr explicit invariant_set(Args... is) : invariants_(std::move(is)...) {}
+
+    template <class Op, class Mesh, class Tuple>
+    bool before(const Mesh& m, const Tuple& t, states& s) const {
+        return check_before<Op>(m, t, s, std::index_sequence_for<Is...>{});
+    }
+    template <class Op, class Mesh, class Result>
+    bool after(const Mesh& m, const Result& r, states& s) const {
+        return check_after<Op>(m, r, s, std::index_sequence_for<Is...>{});
+    }
+
+private:
+    template <class Op, class Mesh, class Tuple, std::size_t... k>
+    bool check_before(const Mesh& m, const Tuple& t, states& s, std::index_sequence<k...>) const {
+        return (one_before<Op>(std::get<k>(invariants_), m, t, std::get<k>(s)) && ...);
+    }
+    template <class Op, class Mesh, class Result, std::size_t... k>
+    bool check_after(const Mesh& m, const Result& r, states& s, std::index_sequence<k...>) const {
+        return (one_after<Op>(std::get<k>(invariants_), m, r, std::get<k>(s)) && ...);
+    }
+    template <class Op, class I, class Mesh, class Tuple>
+    static bool one_before(const I& inv, const Mesh& m, const Tuple& t, typename I::state& s) {
+        if constexpr (requires { inv.before(Op{}, m, t, s); }) return inv.before(Op{}, m, t, s);
+        else return true;
+    }
+    template <class Op, class I, class Mesh, class Result>
+    static bool one_after(const I& inv, const Mesh& m, const Result& r, typename I::state& s) {
+        if constexpr (requires { inv.after(Op{}, m, r, s); }) return inv.after(Op{}, m, r, s);
+        else return true;
+    }
+
+    std::tuple<Is...> invariants_;
+};
+
+template <invariant... Is>
+invariant_set(Is...) -> invariant_set<Is...>;
+
+namespace detail {
+template <class Spec>
+auto spec_invariants(const Spec& spec) {
+    if constexpr (requires { spec.invariants(); }) return spec.invariants();
+    else return invariant_set<>{};
+}
+} // namespace detail
+
+/// The empty spec: operations with no hooks and no extra invariants.
+struct no_spec {};
+
+} // namespace idas

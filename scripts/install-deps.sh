@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# Installs every build, test and benchmark dependency of idas from Debian 12
+# packages. Safe to run any number of times (apt-get install is idempotent).
+set -euo pipefail
+
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+
+packages=(
+  build-essential cmake ninja-build pkg-config git
+  # design-card packages: the core headers need only these
+  libtbb-dev libeigen3-dev libgmp-dev libboost-dev libmetis-dev doctest-dev
+  # the tool, tests and benchmarks
+  libcli11-dev libfmt-dev nlohmann-json3-dev libbenchmark-dev
+  # peers and the optional CGAL-based headers
+  libcgal-dev libopenmesh-dev libmpfr-dev
+  clang-format
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if [ "${#missing[@]}" -gt 0 ]; then
+  export DEBIAN_FRONTEND=noninteractive
+  $SUDO apt-get update
+  $SUDO apt-get install -y --no-install-recommends "${missing[@]}"
+else
+  echo "install-deps: all packages already installed"
+fi

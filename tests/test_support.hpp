@@ -1,0 +1,104 @@
+// Shared helpers for the doctest suite.
+#pragma once
+
+#include <idas/idas.hpp>
+#include <idas/io/io.hpp>
+
+#include <doctest/doctest.h>
+
+#include <map>
+#include <random>
+#include <string>
+
+namespace idas::test {
+
+inline std::string data(const std::string& name) { return std::string(IDAS_DATA_DIR) + "/" + name; }
+inline std::string tmp(const std::string& name) { return std::string(IDAS_TEST_TMP) + "/" + name; }
+
+template <class Mesh = tri_mesh<>>
+Mesh load(const std::string& name) {
+    const auto s = io::read_surface(data(name));
+    return Mesh(s.vertices, s.faces);
+}
+
+/// Geometry-aware spec used by the randomized tests: midpoint splits and collapses,
+/// Laplacian smoothing, plus edge and face attributes written by after(), and a
+/// switch to make after() fail at random (to exercise rollback).
+struct midpoint_spec {
+    edge_attribute<float> edge_length;
+    face_attribute<int> generation;
+    double fail_probability = 0;
+    bool collapse_to_survivor = false; // keep the surviving vertex where it is
+    std::mt19937* rng = nullptr;
+
+    template <class Mesh>
+    void attach(Mesh& m) {
+        edge_length = m.template add_edge_attribute<float>("edge_length", -1.f);
+        generation = m.template add_face_attribute<int>("generation", 0);
+    }
+
+    bool fail_now() {
+        return rng && std::uniform_real_distribution<double>(0, 1)(*rng) < fail_probability;
+    }
+
+    template <class Mesh>
+    void write_cells(Mesh& m, const op_result<tri_tuple>& r) {
+        auto len = m.attribute(edge_length);
+        auto gen = m.attribute(generation);
+        auto p = m.positions();
+        for (const auto& t : r.cells) {
+            gen.set(t.fid, gen[r.origins[&t - r.cells.data()]] + 1);
+            auto e = t;
+            for (int k = 0; k < 3; ++k, e = m.switch_edge(m.switch_vertex(e))) {
+                const auto [a, b] = m.edge_vertices(e);
+                len.set(m.eid(e), static_cast<float>(norm(p[a] - p[b])));
+            }
+        }
+    }
+
+    template <class Mesh>
+    std::optional<vec3> before(op::split_edge, const Mesh& m, const tri_tuple& t) {
+        const auto [a, b] = m.edge_vertices(t);
+        return (m.position(a) + m.position(b)) * 0.5;
+    }
+    template <class Mesh>
+    std::optional<vec3> before(op::collapse_edge, const Mesh& m, const tri_tuple& t) {
+        const auto [a, b] = m.edge_vertices(t);
+        if (collapse_to_survivor) return m.position(a);
+        // Keep boundaries where they are: a boundary endpoint stays put.
+        const bool ba = m.is_boundary_vertex(a), bb = m.is_boundary_vertex(b);
+        if (ba && bb && !m.is_boundary_edge(t)) return std::nullopt;
+        if (ba) return m.position(a);
+        if (bb) return m.position(b);
+        return (m.position(a) + m.position(b)) * 0.5;
+    }
+    template <class Mesh, class Op>
+        requires(std::is_same_v<Op, op::split_edge> || std::is_same_v<Op, op::collapse_edge>)
+    bool after(Op, Mesh& m, const op_result<tri_tuple>& r, vec3& new_position) {
+        m.positions().set(r.anchor.vid, new_position);
+        write_cells(m, r);
+        return !fail_now();
+    }
+    template <class Mesh>
+    bool after(op::swap_edge, Mesh& m, const op_result<tri_tuple>& r) {
+        write_cells(m, r);
+        return !fail_now();
+    }
+    template <class Mesh>
+    bool before(op::smooth_vertex, const Mesh& m, const tri_tuple& t) {
+        return !m.is_boundary_vertex(t.vid);
+    }
+    template <class Mesh>
+    bool after(op::smooth_vertex, Mesh& m, const op_result<tri_tuple>& r) {
+        boost::container::small_vector<index_t, 16> ring;
+        m.one_ring_vertices(r.anchor.vid, ring);
+        vec3 c{};
+        for (index_t w : ring) c += m.position(w);
+        m.positions().set(r.anchor.vid, c / double(ring.size()));
+        write_cells(m, r);
+        return !fail_now();
+    }
+    auto invariants() const { return invariant_set<no_normal_flip>{}; }
+};
+
+} // namespace idas::test

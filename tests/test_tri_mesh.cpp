@@ -1,0 +1,262 @@
+// Navigation, operations, invariants and rollback of the triangle-mesh core.
+#include "test_support.hpp"
+
+#include <algorithm>
+#include <set>
+
+using namespace idas;
+using idas::test::midpoint_spec;
+
+namespace {
+
+// A 3x3 vertex grid, 8 triangles, consistently oriented, open.
+tri_mesh<> grid() {
+    std::vector<vec3> V;
+    for (int y = 0; y < 3; ++y)
+        for (int x = 0; x < 3; ++x) V.push_back({double(x), double(y), 0});
+    std::vector<tri_indices> F;
+    for (index_t y = 0; y < 2; ++y)
+        for (index_t x = 0; x < 2; ++x) {
+            index_t a = y * 3 + x, b = a + 1, c = a + 3, d = c + 1;
+            F.push_back({a, b, d});
+            F.push_back({a, d, c});
+        }
+    return {V, F};
+}
+
+// Regular octahedron: closed, every vertex of valence 4.
+tri_mesh<> octahedron() {
+    std::vector<vec3> V = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    std::vector<tri_indices> F = {{0, 2, 4}, {2, 1, 4}, {1, 3, 4}, {3, 0, 4},
+                                  {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5}};
+    return {V, F};
+}
+
+long euler(const tri_mesh<>& m) { return long(m.n_vertices()) - long(m.n_edges()) + long(m.n_faces()); }
+
+} // namespace
+
+TEST_CASE("tuple navigation obeys the switch identities") {
+    auto m = grid();
+    CHECK(m.n_vertices() == 9);
+    CHECK(m.n_faces() == 8);
+    CHECK(m.n_edges() == 16);
+    CHECK(euler(m) == 1);
+    CHECK_FALSE(find_inconsistency(m).has_value());
+    m.for_each_face([&](const tri_tuple& t) {
+        auto e = t;
+        for (int k = 0; k < 3; ++k) {
+            CHECK(m.is_valid(e));
+            CHECK(m.switch_vertex(m.switch_vertex(e)) == e);
+            CHECK(m.switch_edge(m.switch_edge(e)) == e);
+            CHECK(m.switch_vertex(e).vid != e.vid);
+            if (auto g = m.switch_face(e)) {
+                CHECK(g->fid != e.fid);
+                CHECK(*m.switch_face(*g) == e);
+                CHECK(m.eid(*g) == m.eid(e)); // one edge, one id
+                CHECK_FALSE(m.is_boundary_edge(e));
+            } else {
+                CHECK(m.is_boundary_edge(e));
+            }
+            e = m.switch_edge(m.switch_vertex(e));
+        }
+    });
+    // Centre vertex 4 is interior, corners and sides are on the boundary.
+    CHECK_FALSE(m.is_boundary_vertex(4));
+    for (index_t v : {0u, 1u, 2u, 3u, 5u, 6u, 7u, 8u}) CHECK(m.is_boundary_vertex(v));
+    std::vector<index_t> ring;
+    m.one_ring_vertices(4, ring);
+    std::sort(ring.begin(), ring.end());
+    // The diagonals run (x,y)-(x+1,y+1), so the centre sees its 4 sides and 2 corners.
+    CHECK(ring == std::vector<index_t>{0, 1, 3, 5, 7, 8});
+    // Edge ids are unique per edge.
+    std::set<index_t> ids;
+    m.for_each_edge([&](const tri_tuple& t) { ids.insert(m.eid(t)); });
+    CHECK(ids.size() == 16);
+}
+
+TEST_CASE("operations make earlier tuples stale and return the new faces") {
+    auto m = octahedron();
+    const auto t = m.tuple_from_face(0);
+    const auto other = m.tuple_from_face(6); // far from edge 0
+    auto r = split_edge(m, t);
+    REQUIRE(r);
+    CHECK(r->cells.size() == 4);
+    CHECK_FALSE(m.is_valid(t));
+    CHECK(m.is_valid(other));
+    CHECK(m.n_vertices() == 7);
+    CHECK(m.n_faces() == 10);
+    CHECK(euler(m) == 2);
+    for (const auto& c : r->cells) CHECK(m.is_valid(c));
+    CHECK(r->anchor.vid == 6);
+    CHECK_FALSE(find_inconsistency(m).has_value());
+
+    // Collapsing the new edge back restores the counts.
+    auto back = collapse_edge(m, m.switch_vertex(r->anchor));
+    REQUIRE(back);
+    CHECK(m.n_vertices() == 6);
+    CHECK(m.n_faces() == 8);
+    CHECK_FALSE(find_inconsistency(m).has_value());
+}
+
+TEST_CASE("link condition refuses collapses that change topology") {
+    auto m = octahedron();
+    // Every octahedron edge collapse would create a double face pair (the link of the
+    // edge's endpoints share four vertices); all must be refused... except none pass.
+    int accepted = 0;
+    for (const auto& e : m.get_edges()) {
+        auto copy = m;
+        if (collapse_edge(copy, e)) {
+            ++accepted;
+            CHECK_FALSE(find_inconsistency(copy).has_value());
+        }
+    }
+    // In an octahedron lk(a) ∩ lk(b) has 2 vertices (the opposite ones) and the two
+    // remaining... each collapse is legal and gives a 5-vertex sphere.
+    CHECK(accepted == 12);
+
+    // A tetrahedron: every collapse would leave a degenerate double triangle.
+    std::vector<vec3> V = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    std::vector<tri_indices> F = {{0, 2, 1}, {0, 1, 3}, {1, 2, 3}, {0, 3, 2}};
+    tri_mesh<> tet(V, F);
+    for (const auto& e : tet.get_edges()) CHECK_FALSE(collapse_edge(tet, e));
+
+    // A lone triangle: no collapse is allowed.
+    tri_mesh<> tri({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}, {{0, 1, 2}});
+    for (const auto& e : tri.get_edges()) CHECK_FALSE(collapse_edge(tri, e));
+
+    // Grid: an interior edge joining two boundary vertices must not be collapsed
+    // (it would pinch the boundary); the edge (0,4) joins corner 0 and the centre.
+    auto g = grid();
+    int refused = 0;
+    for (const auto& e : g.get_edges()) {
+        const auto [a, b] = g.edge_vertices(e);
+        if (!g.is_boundary_edge(e) && g.is_boundary_vertex(a) && g.is_boundary_vertex(b)) {
+            CHECK_FALSE(collapse_edge(g, e));
+            ++refused;
+        }
+    }
+    CHECK(refused > 0);
+}
+
+TEST_CASE("swap refuses boundary edges and existing diagonals") {
+    auto g = grid();
+    for (const auto& e : g.get_edges())
+        if (g.is_boundary_edge(e)) CHECK_FALSE(swap_edge(g, e));
+    // In a tetrahedron the two vertices opposite any edge are already joined.
+    std::vector<vec3> V = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    std::vector<tri_indices> F = {{0, 2, 1}, {0, 1, 3}, {1, 2, 3}, {0, 3, 2}};
+    tri_mesh<> tet(V, F);
+    for (const auto& e : tet.get_edges()) CHECK_FALSE(swap_edge(tet, e));
+    // In an octahedron they never are: every swap is legal and keeps a valid sphere.
+    auto m = octahedron();
+    for (const auto& e : m.get_edges()) {
+        auto copy = m;
+        REQUIRE(swap_edge(copy, e));
+        CHECK_FALSE(find_inconsistency(copy).has_value());
+        CHECK(euler(copy) == 2);
+    }
+}
+
+namespace {
+struct no_new_vertices_above_plane {
+    struct state {};
+    template <class Mesh>
+    bool after(op::split_edge, const Mesh& m, const op_result<tri_tuple>& r, state&) const {
+        return m.position(r.anchor.vid).z <= 0.25;
+    }
+};
+} // namespace
+
+TEST_CASE("a user invariant vetoes operations and they roll back exactly") {
+    static_assert(invariant<no_new_vertices_above_plane>);
+    static_assert(invariant_for<no_new_vertices_above_plane, op::split_edge, tri_mesh<>>);
+    struct spec {
+        std::optional<vec3> before(op::split_edge, const tri_mesh<>& m, const tri_tuple& t) {
+            const auto [a, b] = m.edge_vertices(t);
+            return (m.position(a) + m.position(b)) * 0.5;
+        }
+        bool after(op::split_edge, tri_mesh<>& m, const op_result<tri_tuple>& r, vec3& p) {
+            m.positions().set(r.anchor.vid, p);
+            return true;
+        }
+        auto invariants() const { return invariant_set<no_new_vertices_above_plane, no_normal_flip>{}; }
+    } s;
+    auto m = octahedron();
+    int accepted = 0, refused = 0;
+    std::vector<std::pair<index_t, index_t>> edges;
+    for (const auto& e : m.get_edges()) edges.push_back(m.edge_vertices(e));
+    for (const auto& [ea, eb] : edges) {
+        // Earlier splits make old tuples stale, so find the edge afresh.
+        std::optional<tri_tuple> found;
+        m.for_each_edge([&](const tri_tuple& t) {
+            const auto [x, y] = m.edge_vertices(t);
+            if ((x == ea && y == eb) || (x == eb && y == ea)) found = t;
+        });
+        REQUIRE(found);
+        const auto e = *found;
+        const auto before = m;
+        const auto [a, b] = m.edge_vertices(e);
+        const bool high = (m.position(a).z + m.position(b).z) / 2 > 0.25;
+        auto r = split_edge(m, e, s);
+        CHECK(bool(r) == !high);
+        if (r) ++accepted;
+        else {
+            ++refused;
+            CHECK(identical(before, m));
+        }
+    }
+    CHECK(accepted == 8);
+    CHECK(refused == 4);
+    CHECK_FALSE(find_inconsistency(m).has_value());
+}
+
+TEST_CASE("non-manifold input is refused with a message that says where") {
+    auto expect_refusal = [](const std::string& file, const std::string& what) {
+        const auto s = io::read_surface(idas::test::data(file));
+        try {
+            tri_mesh<> m(s.vertices, s.faces);
+            FAIL("accepted non-manifold mesh " << file);
+        } catch (const input_error& e) {
+            const std::string msg = e.what();
+            CHECK_MESSAGE(msg.find(what) != std::string::npos, msg);
+        }
+    };
+    expect_refusal("hour_glass.off", "non-manifold vertex");
+    expect_refusal("edge_with_four_triangles.off", "non-manifold edge");
+    expect_refusal("37989_sf.obj", "non-manifold edge");
+
+    const auto s = io::read_surface(idas::test::data("37989_sf.obj"));
+    const auto r = diagnose_topology(s.vertices.size(), s.faces);
+    CHECK(r.nonmanifold_edges == 232);
+    CHECK_FALSE(r.editable());
+
+    const auto h = io::read_surface(idas::test::data("hour_glass.off"));
+    CHECK(diagnose_topology(h.vertices.size(), h.faces).nonmanifold_vertices == 1);
+    const auto q = io::read_surface(idas::test::data("edge_with_four_triangles.off"));
+    CHECK(diagnose_topology(q.vertices.size(), q.faces).nonmanifold_edges == 1);
+
+    CHECK_THROWS_AS(tri_mesh<>({{0, 0, 0}, {1, 0, 0}, {0, std::nan(""), 0}}, {{0, 1, 2}}), input_error);
+    CHECK_THROWS_AS(tri_mesh<>({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}, {{0, 1, 7}}), input_error);
+}
+
+TEST_CASE("real meshes load with the expected topology") {
+    struct expected {
+        const char* file;
+        std::size_t v, f;
+        long chi;
+        std::size_t loops;
+    };
+    for (auto e : {expected{"bunny.obj", 35947, 69451, -3, 5}, expected{"armadillo.obj", 43243, 86482, 2, 0},
+                   expected{"blub.obj", 7106, 14208, 2, 0}, expected{"100071_sf.obj", 5516, 11040, -4, 0}}) {
+        CAPTURE(e.file);
+        const auto s = io::read_surface(idas::test::data(e.file));
+        const auto r = diagnose_topology(s.vertices.size(), s.faces);
+        CHECK(r.editable());
+        CHECK(r.euler_characteristic == e.chi);
+        CHECK(r.boundary_loops == e.loops);
+        tri_mesh<> m(s.vertices, s.faces);
+        CHECK(m.n_vertices() == e.v);
+        CHECK(m.n_faces() == e.f);
+    }
+}
