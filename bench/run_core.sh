@@ -66,8 +66,9 @@ export MACHINE="$(nproc) logical CPUs, $(grep -m1 'model name' /proc/cpuinfo | c
 export COMPILER="$(${CXX:-c++} --version | head -n1)"
 export LOAD="load average $load_before before, $load_after after"
 export BUILD_CMDS="$build_cmds"
-export CORE_CMD="$(rel "$core_bin") --benchmark_min_time=$min_time ${extra_args[*]:-}"
-export PRED_CMD="${pred_bin:+$(rel "$pred_bin") --benchmark_min_time=$min_time ${extra_args[*]:-}}"
+args_text="${extra_args[*]:+ ${extra_args[*]}}"
+export CORE_CMD="$(rel "$core_bin") --benchmark_min_time=$min_time --benchmark_out=<tmp>/core.json --benchmark_out_format=json$args_text"
+export PRED_CMD="${pred_bin:+$(rel "$pred_bin") --benchmark_min_time=$min_time$args_text}"
 
 python3 - <<'PY'
 import json, os, re

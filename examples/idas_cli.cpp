@@ -82,8 +82,7 @@ mesh_stats compute_stats(const idas::io::surface& s) {
 
     const std::size_t nv = s.vertices.size();
     auto usable = [&](const idas::tri_indices& f) {
-        return f[0] < nv && f[1] < nv && f[2] < nv && f[0] != f[1] && f[1] != f[2] &&
-               f[0] != f[2];
+        return f[0] < nv && f[1] < nv && f[2] < nv && f[0] != f[1] && f[1] != f[2] && f[0] != f[2];
     };
 
     // Bounding box of the referenced vertices (of all of them if no face is usable).
@@ -131,8 +130,10 @@ mesh_stats compute_stats(const idas::io::surface& s) {
         if (j - i == 1) on_boundary[a] = on_boundary[b] = 1;
         i = j;
     }
-    if (n_edges > 0) st.edge_length.mean = sum_len / static_cast<double>(n_edges);
-    else st.edge_length.min = 0;
+    if (n_edges > 0)
+        st.edge_length.mean = sum_len / static_cast<double>(n_edges);
+    else
+        st.edge_length.min = 0;
 
     std::size_t n_ref = 0, n_val6 = 0;
     double sum_val = 0;
@@ -148,8 +149,10 @@ mesh_stats compute_stats(const idas::io::surface& s) {
             n_val6 += valence[v] == 6 ? 1 : 0;
         }
     }
-    if (n_ref > 0) st.mean_valence = sum_val / static_cast<double>(n_ref);
-    else st.min_valence = 0;
+    if (n_ref > 0)
+        st.mean_valence = sum_val / static_cast<double>(n_ref);
+    else
+        st.min_valence = 0;
     if (st.interior_vertices > 0)
         st.valence6_fraction = double(n_val6) / static_cast<double>(st.interior_vertices);
 
@@ -165,7 +168,8 @@ mesh_stats compute_stats(const idas::io::surface& s) {
         for (int i = 0; i < 3; ++i) {
             const vec3& p = s.vertices[f[i]];
             const vec3 u = s.vertices[f[(i + 1) % 3]] - p, w = s.vertices[f[(i + 2) % 3]] - p;
-            face_min = std::min(face_min, std::atan2(idas::norm(idas::cross(u, w)), idas::dot(u, w)));
+            face_min =
+                std::min(face_min, std::atan2(idas::norm(idas::cross(u, w)), idas::dot(u, w)));
         }
         const vec3 n =
             idas::cross(s.vertices[f[1]] - s.vertices[f[0]], s.vertices[f[2]] - s.vertices[f[0]]);
@@ -173,12 +177,16 @@ mesh_stats compute_stats(const idas::io::surface& s) {
         st.min_angle_deg = std::min(st.min_angle_deg, face_min * to_deg);
         sum_min_angle += face_min * to_deg, ++n_faces;
     }
-    if (n_faces > 0) st.mean_min_angle_deg = sum_min_angle / static_cast<double>(n_faces);
-    else st.min_angle_deg = 0;
+    if (n_faces > 0)
+        st.mean_min_angle_deg = sum_min_angle / static_cast<double>(n_faces);
+    else
+        st.min_angle_deg = 0;
     return st;
 }
 
-json vec_json(const vec3& v) { return json::array({v.x, v.y, v.z}); }
+json vec_json(const vec3& v) {
+    return json::array({v.x, v.y, v.z});
+}
 
 json stats_json(const mesh_stats& st) {
     const auto& t = st.topo;
@@ -231,12 +239,16 @@ void print_stats(const mesh_stats& st) {
     }
     if (t.oriented() && !t.manifold())
         fmt::print("  oriented              consistently across its manifold edges\n");
-    else if (t.oriented()) fmt::print("  oriented              consistently\n");
-    else fmt::print("  oriented              NO: {} edges used twice in one direction\n",
-                    t.misoriented_edges);
-    if (t.closed()) fmt::print("  closed                yes\n");
-    else fmt::print("  closed                no: {} boundary edges, {} boundary loops\n",
-                    t.boundary_edges, t.boundary_loops);
+    else if (t.oriented())
+        fmt::print("  oriented              consistently\n");
+    else
+        fmt::print("  oriented              NO: {} edges used twice in one direction\n",
+                   t.misoriented_edges);
+    if (t.closed())
+        fmt::print("  closed                yes\n");
+    else
+        fmt::print("  closed                no: {} boundary edges, {} boundary loops\n",
+                   t.boundary_edges, t.boundary_loops);
     fmt::print("  components            {}\n", t.components);
     fmt::print("  Euler characteristic  {}", t.euler_characteristic);
     if (st.genus) fmt::print(" (genus {})", *st.genus);
@@ -402,7 +414,9 @@ std::optional<index_t> random_live_face(const mesh_t& m, std::mt19937_64& rng) {
         if (const auto f = static_cast<index_t>(rng() % slots); m.face_alive(f)) return f;
     const auto start = static_cast<index_t>(rng() % slots);
     for (index_t i = 0; i < slots; ++i)
-        if (const index_t f = (start + i) % slots; m.face_alive(f)) return f;
+        if (const auto f = static_cast<index_t>((std::uint64_t{start} + i) % slots);
+            m.face_alive(f))
+            return f;
     return std::nullopt;
 }
 
@@ -455,10 +469,18 @@ int run_demo(const std::string& in, const std::string& out, bool as_json, std::u
         const tuple_t t = m.tuple_from_edge(*f, le);
         bool ok = false;
         switch (kind) {
-        case 0: ok = idas::split_edge(m, t, spec, ctx).has_value(); break;
-        case 1: ok = idas::collapse_edge(m, t, spec, ctx).has_value(); break;
-        case 2: ok = idas::swap_edge(m, t, spec, ctx).has_value(); break;
-        default: ok = idas::smooth_vertex(m, t, spec, ctx).has_value(); break;
+        case 0:
+            ok = idas::split_edge(m, t, spec, ctx).has_value();
+            break;
+        case 1:
+            ok = idas::collapse_edge(m, t, spec, ctx).has_value();
+            break;
+        case 2:
+            ok = idas::swap_edge(m, t, spec, ctx).has_value();
+            break;
+        default:
+            ok = idas::smooth_vertex(m, t, spec, ctx).has_value();
+            break;
         }
         ++counts[kind].attempted;
         counts[kind].accepted += ok ? 1 : 0;
@@ -488,12 +510,8 @@ int run_demo(const std::string& in, const std::string& out, bool as_json, std::u
                              {"accepted", counts[k].accepted},
                              {"rejected", counts[k].rejected()}};
         j["operations"] = ops;
-        j["seconds"] = {{"read", t_read},
-                        {"build", t_build},
-                        {"operations", t_ops},
-                        {"validate", t_validate},
-                        {"write", t_write},
-                        {"total", total.seconds()}};
+        j["seconds"] = {{"read", t_read},         {"build", t_build}, {"operations", t_ops},
+                        {"validate", t_validate}, {"write", t_write}, {"total", total.seconds()}};
         fmt::print("{}\n", j.dump(2));
     } else {
         fmt::print("operations              attempted  accepted  rejected\n");
@@ -544,8 +562,7 @@ int run(int argc, char** argv) {
 
     auto* convert = app.add_subcommand("convert", "Convert a mesh between file formats");
     convert->add_option("IN", in, "input mesh file")->required();
-    convert->add_option("OUT", out, "output mesh file; the extension picks the format")
-        ->required();
+    convert->add_option("OUT", out, "output mesh file; the extension picks the format")->required();
     convert->add_flag("--ascii", ascii, "write PLY and STL as text instead of binary");
 
     auto* demo = app.add_subcommand(
@@ -553,9 +570,7 @@ int run(int argc, char** argv) {
     demo->add_option("IN", in, "input mesh file (an orientable 2-manifold)")->required();
     demo->add_option("OUT", out, "output mesh file")->required();
     demo->add_flag("--json", as_json, "print one JSON object instead of text");
-    demo->add_option("--seed", seed, "random seed")
-        ->check(unsigned_integer)
-        ->capture_default_str();
+    demo->add_option("--seed", seed, "random seed")->check(unsigned_integer)->capture_default_str();
     demo->add_option("--ops", n_ops, "number of operations to attempt")
         ->check(unsigned_integer)
         ->capture_default_str();

@@ -39,6 +39,67 @@ concept tri_connectivity =
         { b.touch_face(i, log) };
         { b.rollback(log, mark) };
         { b.reserve(i, i) };
+        { b.set_slot_recycling(true) };
     };
+
+} // namespace idas
+
+namespace idas {
+
+/// A tetrahedral connectivity backend: vertex/tet slots, incidence, and the same
+/// journaled, exactly reversible mutations as tri_connectivity.
+template <class B>
+concept tet_connectivity =
+    std::default_initializable<B> && std::copyable<B> &&
+    requires(B b, const B cb, index_t i, std::uint8_t lf, tet_indices t,
+             typename B::undo_log log, std::size_t mark, const std::vector<tet_indices>& tets) {
+        typename B::undo_log;
+        { log.size() } -> std::convertible_to<std::size_t>;
+        { cb.vertex_slots() } -> std::convertible_to<index_t>;
+        { cb.tet_slots() } -> std::convertible_to<index_t>;
+        { cb.vertex_alive(i) } -> std::convertible_to<bool>;
+        { cb.tet_alive(i) } -> std::convertible_to<bool>;
+        { cb.tet_vertices(i) } -> std::convertible_to<tet_indices>;
+        { cb.tet_version(i) } -> std::convertible_to<version_t>;
+        { cb.vertex_tets(i) } -> std::ranges::forward_range;
+        { cb.opposite_tet(i, lf) } -> std::convertible_to<index_t>;
+        { cb.memory_bytes() } -> std::convertible_to<std::size_t>;
+        { b.build(i, tets) };
+        { b.add_vertex(log) } -> std::convertible_to<index_t>;
+        { b.add_tet(t, log) } -> std::convertible_to<index_t>;
+        { b.remove_tet(i, log) };
+        { b.remove_vertex(i, log) };
+        { b.set_tet(i, t, log) };
+        { b.touch_tet(i, log) };
+        { b.rollback(log, mark) };
+        { b.reserve(i, i) };
+    };
+
+} // namespace idas
+
+namespace idas {
+
+/// What executors and algorithms need of a triangle mesh: tuples, validity,
+/// navigation, positions and the journaled mutation entry points (tri_mesh<B> for any
+/// tri_connectivity B models it).
+template <class M>
+concept tri_mesh_like = requires(M m, const M cm, typename M::tuple t, index_t v, bool on) {
+    typename M::tuple;
+    typename M::undo_log;
+    { cm.is_valid(t) } -> std::convertible_to<bool>;
+    { cm.vertex_slots() } -> std::convertible_to<index_t>;
+    { cm.face_slots() } -> std::convertible_to<index_t>;
+    { cm.n_faces() } -> std::convertible_to<std::size_t>;
+    { cm.n_vertices() } -> std::convertible_to<std::size_t>;
+    { cm.vertex_alive(v) } -> std::convertible_to<bool>;
+    { cm.switch_vertex(t) } -> std::same_as<typename M::tuple>;
+    { cm.switch_edge(t) } -> std::same_as<typename M::tuple>;
+    { cm.switch_face(t) };
+    { cm.edge_vertices(t) };
+    { cm.vertex_faces(v) } -> std::ranges::forward_range;
+    { cm.face_vertices(v) };
+    { cm.position(v) } -> std::convertible_to<vec3>;
+    { m.set_slot_recycling(on) };
+};
 
 } // namespace idas

@@ -218,6 +218,7 @@ public:
     void set_face(index_t f, const tri_indices& v, undo_log& log) { conn_.set_face(f, v, log); }
     void touch_face(index_t f, undo_log& log) { conn_.touch_face(f, log); }
     void rollback(undo_log& log, std::size_t mark) { conn_.rollback(log, mark); }
+    void set_slot_recycling(bool on) noexcept { conn_.set_slot_recycling(on); }
     void reserve(index_t vertices, index_t faces) {
         conn_.reserve(vertices, faces);
         attrs_.ensure(simplex_kind::vertex, vertices);
@@ -319,5 +320,7 @@ bool identical(const tri_mesh<Backend>& a, const tri_mesh<Backend>& b) {
     }
     return true;
 }
+
+static_assert(tri_mesh_like<tri_mesh<backend::indexed_tri>>);
 
 } // namespace idas

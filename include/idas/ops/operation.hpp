@@ -45,6 +45,10 @@ struct op_context {
     std::vector<typename Mesh::tuple> cells;
     std::vector<index_t> origins;
     std::vector<index_t> scratch;
+    // Net live-simplex changes of committed operations on this thread, and those of the
+    // running operation (folded in on commit). Plain integers: each thread owns its context.
+    std::int64_t face_delta = 0, vertex_delta = 0;
+    std::int64_t pending_faces = 0, pending_vertices = 0;
 
     op_context() {
         conn.reserve(256), cells.reserve(64), origins.reserve(64), scratch.reserve(64);

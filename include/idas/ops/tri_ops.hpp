@@ -29,11 +29,13 @@ std::optional<op_result<typename Mesh::tuple>> run_tri_operation(Mesh& m, const 
     if (!cache) return std::nullopt;
 
     ctx.cells.clear(), ctx.origins.clear();
+    ctx.pending_faces = ctx.pending_vertices = 0;
     const auto anchor = change();
     op_result<typename Mesh::tuple> r{anchor, ctx.cells, ctx.origins};
     if (!run_after<Op>(spec, m, r, *cache)) return std::nullopt;
     if (!inv.template after<Op>(std::as_const(m), r, st)) return std::nullopt;
     tx.commit();
+    ctx.face_delta += ctx.pending_faces, ctx.vertex_delta += ctx.pending_vertices;
     return r;
 }
 
@@ -72,6 +74,7 @@ std::optional<op_result<typename Mesh::tuple>> split_edge(Mesh& m, const typenam
         };
         split_face(f);
         if (g) split_face(g->fid);
+        ctx.pending_faces = g ? 2 : 1, ctx.pending_vertices = 1;
         // In f, (a, nv) is opposite the same corner as ab was.
         return typename Mesh::tuple{nv, f, t.local_edge, m.connectivity().face_version(f)};
     });
@@ -90,10 +93,11 @@ std::optional<op_result<typename Mesh::tuple>> collapse_edge(Mesh& m, const type
         faces_b.assign(m.vertex_faces(b).begin(), m.vertex_faces(b).end());
         for (index_t f : faces_b) {
             const auto& fv = m.face_vertices(f);
-            if (fv[0] == a || fv[1] == a || fv[2] == a) m.remove_face(f, ctx.conn);
+            if (fv[0] == a || fv[1] == a || fv[2] == a) m.remove_face(f, ctx.conn), --ctx.pending_faces;
             else m.set_face(f, detail::replaced(fv, b, a), ctx.conn);
         }
         m.remove_vertex(b, ctx.conn);
+        ctx.pending_vertices = -1;
         // a moves, so every face of its new star changes; moved-in faces were bumped already.
         for (index_t f : m.vertex_faces(a)) {
             if (std::find(faces_b.begin(), faces_b.end(), f) == faces_b.end()) m.touch_face(f, ctx.conn);
@@ -144,6 +148,25 @@ std::optional<op_result<typename Mesh::tuple>> smooth_vertex(Mesh& m, const type
         }
         return m.tuple_in_face(v, t.fid);
     });
+}
+
+// Operation kinds map to their functions by overload, so a scheduler can dispatch on
+// the kind type at compile time.
+template <class Mesh, class Spec>
+auto apply(op::split_edge, Mesh& m, const typename Mesh::tuple& t, Spec& s, op_context<Mesh>& c) {
+    return split_edge(m, t, s, c);
+}
+template <class Mesh, class Spec>
+auto apply(op::collapse_edge, Mesh& m, const typename Mesh::tuple& t, Spec& s, op_context<Mesh>& c) {
+    return collapse_edge(m, t, s, c);
+}
+template <class Mesh, class Spec>
+auto apply(op::swap_edge, Mesh& m, const typename Mesh::tuple& t, Spec& s, op_context<Mesh>& c) {
+    return swap_edge(m, t, s, c);
+}
+template <class Mesh, class Spec>
+auto apply(op::smooth_vertex, Mesh& m, const typename Mesh::tuple& t, Spec& s, op_context<Mesh>& c) {
+    return smooth_vertex(m, t, s, c);
 }
 
 /// The calling thread's default operation context for meshes of type Mesh.

@@ -20,7 +20,7 @@ public:
     /// what it changed itself.
     struct undo_entry {
         enum class what : std::uint8_t {
-            face_set, face_added, vertex_added, vertex_removed, vertex_reused, vf_insert, vf_erase, free_face_pushed,
+            face_set, face_added, vertex_added, vertex_removed, vertex_dropped, vertex_reused, vf_insert, vf_erase, free_face_pushed,
             free_face_popped
         };
         what kind;
@@ -76,13 +76,17 @@ public:
         return bytes;
     }
 
+    /// Parallel workers share this backend, so while they run, removed slots are not
+    /// recycled (the free lists would be shared state); `consolidate` reclaims them later.
+    void set_slot_recycling(bool on) noexcept { recycle_ = on; }
+
     // ---- journaled mutation ----
 
     // Dead slots are recycled (newest first), so a long run of splits and collapses
     // keeps the arrays at a steady size instead of growing without bound. A recycled
     // face slot keeps counting versions, so old tuples to it stay stale.
     index_t add_vertex(undo_log& log) {
-        if (!free_vertices_.empty()) {
+        if (recycle_ && !free_vertices_.empty()) {
             const index_t v = free_vertices_.back();
             free_vertices_.pop_back();
             valive_[v] = 1;
@@ -98,12 +102,12 @@ public:
     void remove_vertex(index_t v, undo_log& log) {
         assert(vf_[v].empty());
         valive_[v] = 0;
-        free_vertices_.push_back(v);
-        log.push_back({undo_entry::what::vertex_removed, v});
+        if (recycle_) free_vertices_.push_back(v);
+        log.push_back({recycle_ ? undo_entry::what::vertex_removed : undo_entry::what::vertex_dropped, v});
     }
     index_t add_face(const tri_indices& f, undo_log& log) {
         index_t id;
-        if (!free_faces_.empty()) {
+        if (recycle_ && !free_faces_.empty()) {
             id = free_faces_.back();
             free_faces_.pop_back();
             log.push_back({undo_entry::what::free_face_popped, id});
@@ -124,8 +128,10 @@ public:
         for (index_t v : fv_[f]) vf_erase(v, f, log);
         fv_[f] = {invalid_index, invalid_index, invalid_index};
         ++version_[f];
-        free_faces_.push_back(f);
-        log.push_back({undo_entry::what::free_face_pushed, f});
+        if (recycle_) {
+            free_faces_.push_back(f);
+            log.push_back({undo_entry::what::free_face_pushed, f});
+        }
     }
     /// Rewrites a face in place (same slot, new version).
     void set_face(index_t f, const tri_indices& nv, undo_log& log) {
@@ -163,6 +169,7 @@ public:
                 valive_[e.a] = 1;
                 free_vertices_.pop_back();
                 break;
+            case w::vertex_dropped: valive_[e.a] = 1; break;
             case w::vertex_reused:
                 valive_[e.a] = 0;
                 free_vertices_.push_back(e.a);
@@ -206,6 +213,7 @@ private:
     std::vector<face_list> vf_;
     std::vector<std::uint8_t> valive_;
     std::vector<index_t> free_faces_, free_vertices_;
+    bool recycle_ = true;
 };
 
 static_assert(tri_connectivity<indexed_tri>);

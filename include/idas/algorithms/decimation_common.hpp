@@ -1,0 +1,31 @@
+// Pieces the decimation specs share.
+#pragma once
+
+#include <idas/exec/executor.hpp>
+#include <idas/mesh/tri_mesh.hpp>
+
+#include <cstdint>
+
+namespace idas::algorithms {
+
+/// After a collapse into a, every edge of a's new star changed: the spokes (a, x) and
+/// the rim edges (x, y) opposite a. Each is pushed once.
+template <class Op, class Mesh, class Push>
+void push_star_edges(const Mesh& m, const op_result<typename Mesh::tuple>& r, Push& push) {
+    for (const auto& spoke : r.cells) {
+        push(Op{}, spoke); // (a, next)
+        const auto rim = m.switch_edge(m.switch_vertex(spoke));
+        push(Op{}, rim);
+        // On the boundary the fan's last spoke (prev, a) belongs to no other cell.
+        const auto prev = m.switch_edge(spoke);
+        if (m.is_boundary_edge(prev)) push(Op{}, prev);
+    }
+}
+
+/// Stops a decimation once the live face count reaches the target.
+struct face_target {
+    std::int64_t target_faces = 0;
+    bool stop(const progress& p) const noexcept { return p.faces <= target_faces; }
+};
+
+} // namespace idas::algorithms

@@ -1,0 +1,438 @@
+// The IDAS schedule as a compile-time executor. An algorithm is a type alias:
+//
+//   using my_algorithm = idas::executor<my_spec, idas::tri_mesh<>, idas::lock::vertex_try_lock,
+//                                       idas::queue::binary_heap, idas::partition::morton>;
+//
+// The spec names its operations (`using operations = idas::op_list<...>`) and may give
+//   priority(Op, mesh, tuple) -> double      lower runs first (default 0)
+//   renew(Op, mesh, result, push)            what to enqueue after a success: push(Op{}, tuple)
+//   stop(const progress&) -> bool            stopping criterion (default: queue exhausted)
+//   should_process(Op, mesh, entry) -> bool  skip an entry (default: always process)
+//   initial(mesh, push)                      what to enqueue first (default: every edge for
+//                                            edge operations, every vertex for smoothing)
+//   prepare(mesh)                            one-off set-up before the first priority
+//   lock_region(Op, mesh, tuple, claim)      vertices to hold (default: the closed stars of
+//                                            the operation's vertices, see below)
+// plus the operation hooks (before/after/invariants) used by the operations themselves.
+// Operation kinds are types and dispatch is a fold over them: no std::function, no
+// virtual call, no string, and no allocation per operation once buffers are warm.
+#pragma once
+
+#include <idas/exec/lock.hpp>
+#include <idas/exec/partition.hpp>
+#include <idas/exec/queue.hpp>
+#include <idas/ops/operation.hpp>
+#include <idas/ops/tri_ops.hpp>
+
+#include <boost/container/small_vector.hpp>
+#include <tbb/parallel_for.h>
+#include <tbb/spin_mutex.h>
+#include <tbb/task_arena.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <type_traits>
+#include <vector>
+
+namespace idas {
+
+template <operation_kind... Ops>
+struct op_list {};
+
+/// Live counts the stopping criterion sees. Exact in serial; in parallel, refreshed
+/// every `check_every` successes per worker, so a run may overshoot by a bounded amount.
+struct progress {
+    std::int64_t faces = 0, vertices = 0;
+    std::uint64_t successes = 0;
+};
+
+struct exec_options {
+    unsigned threads = 1;
+    unsigned max_retry = 8;      // lock failures before an entry goes to the final serial pass
+    unsigned check_every = 32;   // successes between stop checks per worker (parallel only)
+    unsigned parts_per_thread = 1;
+};
+
+struct run_report {
+    std::uint64_t popped = 0, stale = 0, skipped = 0, attempted = 0, succeeded = 0, refused = 0;
+    std::uint64_t lock_failures = 0, deferred_to_serial = 0, stolen = 0;
+    std::int64_t faces = 0, vertices = 0;
+    unsigned threads = 1;
+    double seconds = 0;
+};
+
+namespace detail {
+template <class L>
+struct op_list_traits;
+template <class... Ops>
+struct op_list_traits<op_list<Ops...>> {
+    /// Calls fn(Op{}) for the Op whose id is `kind`; false if none matches.
+    template <class Fn>
+    static bool dispatch(std::uint8_t kind, Fn&& fn) {
+        return ((kind == Ops::id ? (fn(Ops{}), true) : false) || ...);
+    }
+    template <class Fn>
+    static void for_each(Fn&& fn) {
+        (fn(Ops{}), ...);
+    }
+};
+
+template <class Op>
+inline constexpr bool is_vertex_op = std::is_same_v<Op, op::smooth_vertex>;
+} // namespace detail
+
+/// A spec the executor can run on Mesh: it lists its operations, each applicable.
+template <class Spec, class Mesh>
+concept schedule_spec = requires { typename Spec::operations; } &&
+                        requires { detail::op_list_traits<typename Spec::operations>{}; };
+
+template <class Spec, tri_mesh_like Mesh, lock_policy Lock = lock::none, class Queue = queue::binary_heap,
+          class Partition = partition::morton>
+    requires schedule_spec<Spec, Mesh> && queue_policy<Queue, queue_entry<typename Mesh::tuple>> &&
+             partition_policy<Partition, Mesh>
+class executor {
+public:
+    using tuple = typename Mesh::tuple;
+    using entry = queue_entry<tuple>;
+    using queue_type = typename Queue::template type<entry>;
+    using ops = detail::op_list_traits<typename Spec::operations>;
+
+    /// Runs the schedule to completion (or until `stop`). Serial when the lock policy is
+    /// `lock::none` or one thread is asked for; otherwise on a oneTBB arena.
+    static run_report run(Mesh& m, Spec& spec, const exec_options& options = {}) {
+        const auto start = std::chrono::steady_clock::now();
+        if constexpr (requires { spec.prepare(m); }) spec.prepare(m);
+        run_report report;
+        if constexpr (Lock::parallel) {
+            if (options.threads > 1) report = run_parallel(m, spec, options);
+            else report = run_serial(m, spec);
+        } else {
+            report = run_serial(m, spec);
+        }
+        report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        return report;
+    }
+
+    // ---- pieces shared by the serial and parallel loops ----
+
+    template <class Op>
+    static double priority_of(Spec& spec, const Mesh& m, const tuple& t) {
+        if constexpr (requires { spec.priority(Op{}, m, t); }) return static_cast<double>(spec.priority(Op{}, m, t));
+        else return 0.0;
+    }
+
+    /// Enqueues the initial entries through `push(Op, tuple)`.
+    template <class Push>
+    static void initial(Spec& spec, const Mesh& m, Push&& push) {
+        if constexpr (requires { spec.initial(m, push); }) {
+            spec.initial(m, push);
+        } else {
+            ops::for_each([&](auto op) {
+                using Op = decltype(op);
+                if constexpr (detail::is_vertex_op<Op>) m.for_each_vertex([&](const tuple& t) { push(Op{}, t); });
+                else m.for_each_edge([&](const tuple& t) { push(Op{}, t); });
+            });
+        }
+    }
+
+    template <class Op, class Push>
+    static void renew(Spec& spec, const Mesh& m, const op_result<tuple>& r, Push&& push) {
+        if constexpr (requires { spec.renew(Op{}, m, r, push); }) spec.renew(Op{}, m, r, push);
+    }
+
+    static bool should_stop(Spec& spec, const progress& p) {
+        if constexpr (requires { { spec.stop(p) } -> std::convertible_to<bool>; }) return spec.stop(p);
+        else return false;
+    }
+
+    template <class Op>
+    static bool should_process(Spec& spec, const Mesh& m, const entry& e) {
+        if constexpr (requires { { spec.should_process(Op{}, m, e) } -> std::convertible_to<bool>; })
+            return spec.should_process(Op{}, m, e);
+        else return true;
+    }
+
+    static progress counts(const Mesh& m) {
+        return {static_cast<std::int64_t>(m.n_faces()), static_cast<std::int64_t>(m.n_vertices()), 0};
+    }
+
+private:
+    // ---------------------------------------------------------------- serial ----
+    static run_report run_serial(Mesh& m, Spec& spec) {
+        auto& ctx = thread_context<Mesh>();
+        queue_type q;
+        q.reserve(3 * std::size_t(m.face_slots()));
+        initial(spec, m, [&](auto op, const tuple& t) {
+            using Op = decltype(op);
+            q.push({priority_of<Op>(spec, m, t), t, Op::id, 0});
+        });
+        progress p = counts(m);
+        run_report report;
+        drain_serial(m, spec, ctx, q, p, report);
+        report.faces = p.faces, report.vertices = p.vertices;
+        return report;
+    }
+
+    static void drain_serial(Mesh& m, Spec& spec, op_context<Mesh>& ctx, queue_type& q, progress& p,
+                             run_report& report) {
+        if (should_stop(spec, p)) return;
+        entry e;
+        std::size_t next_compaction = 4 * std::size_t(p.faces) + 4096;
+        while (q.pop(e)) {
+            ++report.popped;
+            if (!m.is_valid(e.tuple)) {
+                ++report.stale;
+                continue;
+            }
+            bool done = false;
+            ops::dispatch(e.kind, [&](auto op) {
+                using Op = decltype(op);
+                if (!should_process<Op>(spec, m, e)) {
+                    ++report.skipped;
+                    return;
+                }
+                ++report.attempted;
+                const auto fd = ctx.face_delta, vd = ctx.vertex_delta;
+                auto r = apply(Op{}, m, e.tuple, spec, ctx);
+                if (!r) {
+                    ++report.refused;
+                    return;
+                }
+                ++report.succeeded, ++p.successes;
+                p.faces += ctx.face_delta - fd, p.vertices += ctx.vertex_delta - vd;
+                renew<Op>(spec, m, *r, [&](auto nop, const tuple& t) {
+                    using NOp = decltype(nop);
+                    q.push({priority_of<NOp>(spec, m, t), t, NOp::id, 0});
+                });
+                done = should_stop(spec, p);
+            });
+            if (done) break;
+            // Stale entries pile up on flat regions (every success renews its star);
+            // purge them when the queue outgrows the mesh.
+            if (q.size() > next_compaction) {
+                q.erase_if([&](const entry& x) { return !m.is_valid(x.tuple); });
+                next_compaction = std::max<std::size_t>(2 * q.size(), 4 * std::size_t(p.faces) + 4096);
+            }
+        }
+    }
+
+    // -------------------------------------------------------------- parallel ----
+    struct alignas(64) worker_state {
+        queue_type q;
+        tbb::spin_mutex mutex; // taken by the owner on every access, by thieves to steal
+        std::vector<entry> deferred;
+        op_context<Mesh> ctx;
+        run_report report;
+        std::atomic<std::int64_t> published_faces{0}, published_vertices{0};
+        std::uint64_t successes = 0;
+    };
+
+    using held_vertices = boost::container::small_vector<index_t, 64>;
+
+    enum class claim_result { ok, busy, stale };
+
+    /// Claims the vertices an operation reads or writes: its own vertices first (so the
+    /// tuple can be validated under lock), then every vertex of their stars. Writers of a
+    /// face hold all of its vertices, so holding a vertex freezes its star.
+    template <class Op>
+    static claim_result claim(Spec& spec, const Mesh& m, const tuple& t, Lock& locks, std::uint32_t me,
+                              held_vertices& held) {
+        auto take = [&](index_t v) {
+            if (std::find(held.begin(), held.end(), v) != held.end()) return true;
+            if (!locks.try_lock(v, me)) return false;
+            held.push_back(v);
+            return true;
+        };
+        if (t.vid >= m.vertex_slots() || !take(t.vid)) return claim_result::busy;
+        bool in_star = false;
+        for (index_t f : m.vertex_faces(t.vid)) in_star |= f == t.fid;
+        if (!in_star || !m.is_valid(t)) return claim_result::stale;
+        if constexpr (requires { spec.lock_region(Op{}, m, t, take); }) {
+            return spec.lock_region(Op{}, m, t, take) ? claim_result::ok : claim_result::busy;
+        } else {
+            index_t seeds[2] = {t.vid, t.vid};
+            if constexpr (!detail::is_vertex_op<Op>) {
+                seeds[1] = m.edge_vertices(t).second;
+                if (!take(seeds[1])) return claim_result::busy;
+            }
+            for (index_t s : seeds)
+                for (index_t f : m.vertex_faces(s))
+                    for (index_t w : m.face_vertices(f))
+                        if (!take(w)) return claim_result::busy;
+            return claim_result::ok;
+        }
+    }
+
+    static void release(Lock& locks, std::uint32_t me, held_vertices& held) {
+        for (index_t v : held) locks.unlock(v, me);
+        held.clear();
+    }
+
+    static run_report run_parallel(Mesh& m, Spec& spec, const exec_options& o) {
+        const unsigned T = o.threads;
+        const unsigned P = T * std::max(1u, o.parts_per_thread);
+        Lock locks(m.vertex_slots());
+        m.set_slot_recycling(false);
+        std::vector<std::unique_ptr<worker_state>> workers;
+        for (unsigned w = 0; w < P; ++w) workers.push_back(std::make_unique<worker_state>());
+
+        // Initial entries go to the part of their tuple's vertex.
+        const std::vector<std::uint32_t> part = Partition::assign(m, P);
+        {
+            std::vector<entry> all;
+            initial(spec, m, [&](auto op, const tuple& t) {
+                using Op = decltype(op);
+                all.push_back({0.0, t, Op::id, 0});
+            });
+            tbb::task_arena arena(static_cast<int>(T));
+            arena.execute([&] {
+                tbb::parallel_for(0u, P, [&](unsigned w) {
+                    auto& q = workers[w]->q;
+                    q.reserve(all.size() / P * 2 + 64);
+                    for (entry e : all) {
+                        if (part[e.tuple.vid] != w) continue;
+                        ops::dispatch(e.kind, [&](auto op) { e.priority = priority_of<decltype(op)>(spec, m, e.tuple); });
+                        q.push(e);
+                    }
+                });
+            });
+        }
+
+        const progress start = counts(m);
+        std::atomic<bool> stop{should_stop(spec, start)};
+        std::vector<entry> final_pass;
+        tbb::spin_mutex final_mutex;
+
+        auto global_progress = [&] {
+            progress p = start;
+            for (auto& w : workers) {
+                p.faces += w->published_faces.load(std::memory_order_relaxed);
+                p.vertices += w->published_vertices.load(std::memory_order_relaxed);
+            }
+            return p;
+        };
+
+        auto drain = [&](unsigned w) {
+            worker_state& me = *workers[w];
+            const std::uint32_t owner = w + 1;
+            held_vertices held;
+            std::vector<entry> renewed;
+            std::uint64_t since_check = 0;
+            auto pop = [&](entry& e) {
+                {
+                    tbb::spin_mutex::scoped_lock lk(me.mutex);
+                    if (me.q.pop(e)) return true;
+                    if (!me.deferred.empty()) {
+                        for (const auto& d : me.deferred) me.q.push(d);
+                        me.deferred.clear();
+                        if (me.q.pop(e)) return true;
+                    }
+                }
+                // Own work is done: steal the best entry of another part.
+                for (unsigned k = 1; k < P; ++k) {
+                    worker_state& other = *workers[(w + k) % P];
+                    tbb::spin_mutex::scoped_lock lk(other.mutex);
+                    if (other.q.pop(e)) {
+                        ++me.report.stolen;
+                        return true;
+                    }
+                }
+                return false;
+            };
+            entry e;
+            while (!stop.load(std::memory_order_relaxed) && pop(e)) {
+                ++me.report.popped;
+                ops::dispatch(e.kind, [&](auto op) {
+                    using Op = decltype(op);
+                    const claim_result c = claim<Op>(spec, m, e.tuple, locks, owner, held);
+                    if (c != claim_result::ok) {
+                        release(locks, owner, held);
+                        if (c == claim_result::stale) {
+                            ++me.report.stale;
+                            return;
+                        }
+                        ++me.report.lock_failures;
+                        if (++e.retries > o.max_retry) {
+                            ++me.report.deferred_to_serial;
+                            tbb::spin_mutex::scoped_lock lk(final_mutex);
+                            final_pass.push_back(e);
+                        } else {
+                            tbb::spin_mutex::scoped_lock lk(me.mutex);
+                            me.deferred.push_back(e); // retried once the queue runs dry: backoff
+                        }
+                        return;
+                    }
+                    if (!should_process<Op>(spec, m, e)) {
+                        ++me.report.skipped;
+                        release(locks, owner, held);
+                        return;
+                    }
+                    ++me.report.attempted;
+                    auto r = apply(Op{}, m, e.tuple, spec, me.ctx);
+                    if (!r) {
+                        ++me.report.refused;
+                        release(locks, owner, held);
+                        return;
+                    }
+                    ++me.report.succeeded;
+                    renewed.clear();
+                    renew<Op>(spec, m, *r, [&](auto nop, const tuple& t) {
+                        using NOp = decltype(nop);
+                        renewed.push_back({priority_of<NOp>(spec, m, t), t, NOp::id, 0});
+                    });
+                    release(locks, owner, held);
+                    {
+                        tbb::spin_mutex::scoped_lock lk(me.mutex);
+                        for (const auto& x : renewed) me.q.push(x);
+                    }
+                    if (++since_check >= o.check_every) {
+                        since_check = 0;
+                        me.published_faces.store(me.ctx.face_delta, std::memory_order_relaxed);
+                        me.published_vertices.store(me.ctx.vertex_delta, std::memory_order_relaxed);
+                        if (should_stop(spec, global_progress())) stop.store(true, std::memory_order_relaxed);
+                    }
+                });
+            }
+            me.published_faces.store(me.ctx.face_delta, std::memory_order_relaxed);
+            me.published_vertices.store(me.ctx.vertex_delta, std::memory_order_relaxed);
+        };
+
+        {
+            tbb::task_arena arena(static_cast<int>(T));
+            arena.execute([&] {
+                tbb::parallel_for(0u, P, [&](unsigned w) { drain(w); }, tbb::simple_partitioner{});
+            });
+        }
+
+        run_report report;
+        report.threads = T;
+        for (auto& w : workers) {
+            auto& r = w->report;
+            report.popped += r.popped, report.stale += r.stale, report.skipped += r.skipped;
+            report.attempted += r.attempted, report.succeeded += r.succeeded, report.refused += r.refused;
+            report.lock_failures += r.lock_failures, report.deferred_to_serial += r.deferred_to_serial;
+            report.stolen += r.stolen;
+        }
+        m.set_slot_recycling(true);
+
+        // Final serial pass: entries that kept losing lock races, then anything left.
+        progress p = global_progress();
+        if (!stop.load() && !should_stop(spec, p)) {
+            queue_type q;
+            for (const auto& x : final_pass) q.push(x);
+            for (auto& w : workers) {
+                entry x;
+                while (w->q.pop(x)) q.push(x);
+                for (const auto& d : w->deferred) q.push(d);
+            }
+            drain_serial(m, spec, thread_context<Mesh>(), q, p, report);
+        }
+        report.faces = p.faces, report.vertices = p.vertices;
+        return report;
+    }
+};
+
+} // namespace idas

@@ -1,0 +1,61 @@
+// Locking policies: how a worker claims the vertices of an operation's region.
+#pragma once
+
+#include <idas/core/types.hpp>
+
+#include <atomic>
+#include <concepts>
+#include <cstdint>
+#include <memory>
+
+namespace idas {
+
+/// Owner ids are 1-based worker numbers; 0 means free.
+template <class L>
+concept lock_policy = requires(L l, index_t v, std::uint32_t owner, std::size_t n) {
+    { L::parallel } -> std::convertible_to<bool>;
+    { L(n) };
+    { l.try_lock(v, owner) } -> std::same_as<bool>;
+    { l.unlock(v, owner) };
+};
+
+namespace lock {
+
+/// Serial execution: claiming always succeeds and nothing is stored. Compiles to no
+/// atomics at all.
+struct none {
+    static constexpr bool parallel = false;
+    explicit none(std::size_t = 0) noexcept {}
+    static constexpr bool try_lock(index_t, std::uint32_t) noexcept { return true; }
+    static constexpr void unlock(index_t, std::uint32_t) noexcept {}
+};
+
+/// One atomic owner word per vertex; a worker claims a vertex by compare-and-swap and
+/// gives up (rather than waits) if another worker holds it. Claiming a vertex it
+/// already holds succeeds, so overlapping regions need no bookkeeping by the caller.
+class vertex_try_lock {
+public:
+    static constexpr bool parallel = true;
+    explicit vertex_try_lock(std::size_t n) : owner_(std::make_unique<std::atomic<std::uint32_t>[]>(n)), n_(n) {
+        for (std::size_t i = 0; i < n; ++i) owner_[i].store(0, std::memory_order_relaxed);
+    }
+    bool try_lock(index_t v, std::uint32_t me) noexcept {
+        std::uint32_t expected = 0;
+        if (owner_[v].compare_exchange_strong(expected, me, std::memory_order_acquire, std::memory_order_relaxed))
+            return true;
+        return expected == me;
+    }
+    void unlock(index_t v, std::uint32_t) noexcept { owner_[v].store(0, std::memory_order_release); }
+    std::size_t size() const noexcept { return n_; }
+
+private:
+    std::unique_ptr<std::atomic<std::uint32_t>[]> owner_;
+    std::size_t n_;
+};
+
+} // namespace lock
+
+static_assert(lock_policy<lock::none>);
+static_assert(lock_policy<lock::vertex_try_lock>);
+
+} // namespace idas

@@ -1,0 +1,104 @@
+// Partition policies: split the vertices into parts, one queue per part, so workers
+// start far apart and rarely contend for the same vertices.
+#pragma once
+
+#include <idas/core/types.hpp>
+
+#include <metis.h>
+
+#include <algorithm>
+#include <concepts>
+#include <cstdint>
+#include <numeric>
+#include <stdexcept>
+#include <vector>
+
+namespace idas {
+
+/// `assign(mesh, parts)` gives each vertex slot a part in [0, parts).
+template <class P, class Mesh>
+concept partition_policy = requires(const Mesh& m, unsigned parts) {
+    { P::assign(m, parts) } -> std::same_as<std::vector<std::uint32_t>>;
+};
+
+namespace partition {
+
+namespace detail {
+/// Spreads the low 21 bits of x so two zero bits separate each (for 3D interleaving).
+constexpr std::uint64_t spread_bits(std::uint64_t x) noexcept {
+    x &= 0x1fffff;
+    x = (x | x << 32) & 0x1f00000000ffffULL;
+    x = (x | x << 16) & 0x1f0000ff0000ffULL;
+    x = (x | x << 8) & 0x100f00f00f00f00fULL;
+    x = (x | x << 4) & 0x10c30c30c30c30c3ULL;
+    x = (x | x << 2) & 0x1249249249249249ULL;
+    return x;
+}
+} // namespace detail
+
+/// Sorts vertices along a Morton (Z-order) curve and cuts it into equal parts: cheap,
+/// and parts are spatially compact.
+struct morton {
+    template <class Mesh>
+    static std::vector<std::uint32_t> assign(const Mesh& m, unsigned parts) {
+        const index_t n = m.vertex_slots();
+        std::vector<std::uint32_t> part(n, 0);
+        if (parts <= 1 || n == 0) return part;
+        vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+        for (index_t v = 0; v < n; ++v) {
+            if (!m.vertex_alive(v)) continue;
+            const vec3& p = m.position(v);
+            for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], p[k]), hi[k] = std::max(hi[k], p[k]);
+        }
+        const double extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z, 1e-300});
+        std::vector<std::pair<std::uint64_t, index_t>> keyed;
+        keyed.reserve(n);
+        for (index_t v = 0; v < n; ++v) {
+            if (!m.vertex_alive(v)) continue;
+            const vec3& p = m.position(v);
+            std::uint64_t code = 0;
+            for (int k = 0; k < 3; ++k) {
+                const auto q = static_cast<std::uint64_t>((p[k] - lo[k]) / extent * 2097151.0);
+                code |= detail::spread_bits(q) << k;
+            }
+            keyed.push_back({code, v});
+        }
+        std::sort(keyed.begin(), keyed.end());
+        for (std::size_t i = 0; i < keyed.size(); ++i)
+            part[keyed[i].second] = static_cast<std::uint32_t>(i * parts / keyed.size());
+        return part;
+    }
+};
+
+/// METIS k-way partition of the vertex graph: minimal cut, so fewer operations touch
+/// two parts; costs a graph build and a METIS call.
+struct metis {
+    template <class Mesh>
+    static std::vector<std::uint32_t> assign(const Mesh& m, unsigned parts) {
+        const index_t n = m.vertex_slots();
+        std::vector<std::uint32_t> part(n, 0);
+        if (parts <= 1 || n == 0) return part;
+        std::vector<idx_t> xadj(n + 1, 0), adjncy;
+        std::vector<index_t> ring;
+        for (index_t v = 0; v < n; ++v) {
+            ring.clear();
+            if (m.vertex_alive(v)) m.one_ring_vertices(v, ring);
+            for (index_t w : ring) adjncy.push_back(static_cast<idx_t>(w));
+            xadj[v + 1] = static_cast<idx_t>(adjncy.size());
+        }
+        idx_t nv = static_cast<idx_t>(n), ncon = 1, nparts = static_cast<idx_t>(parts), objval = 0;
+        std::vector<idx_t> result(n, 0);
+        idx_t options[METIS_NOPTIONS];
+        METIS_SetDefaultOptions(options);
+        options[METIS_OPTION_SEED] = 1; // deterministic
+        const int status = METIS_PartGraphKway(&nv, &ncon, xadj.data(), adjncy.data(), nullptr, nullptr, nullptr,
+                                               &nparts, nullptr, nullptr, options, &objval, result.data());
+        if (status != METIS_OK) throw std::runtime_error("METIS_PartGraphKway failed");
+        for (index_t v = 0; v < n; ++v) part[v] = static_cast<std::uint32_t>(result[v]);
+        return part;
+    }
+};
+
+} // namespace partition
+
+} // namespace idas

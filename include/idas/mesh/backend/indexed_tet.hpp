@@ -1,0 +1,229 @@
+// The paper's indexed connectivity for tetrahedral meshes: each tet stores its four
+// vertices (positively oriented), each vertex the tets incident to it. Adjacency across
+// a face is found by searching a vertex star, so there is no adjacency to keep in sync.
+#pragma once
+
+#include <idas/core/concepts.hpp>
+#include <idas/core/types.hpp>
+
+#include <boost/container/small_vector.hpp>
+
+#include <algorithm>
+#include <cassert>
+#include <span>
+#include <vector>
+
+namespace idas::backend {
+
+class indexed_tet {
+public:
+    /// One reversible change. Undone newest-first, so each entry only restores what it
+    /// changed itself.
+    struct undo_entry {
+        enum class what : std::uint8_t {
+            tet_set,
+            tet_added,
+            vertex_added,
+            vertex_removed,
+            vertex_reused,
+            vt_insert,
+            vt_erase,
+            free_tet_pushed,
+            free_tet_popped
+        };
+        what kind;
+        index_t a = 0, b = 0, c = 0; // tet or vertex; vt: vertex, tet, position
+        tet_indices verts{};
+        version_t version = 0;
+    };
+    using undo_log = std::vector<undo_entry>;
+
+    // A vertex of a good-quality mesh has 20-30 tets; most lists stay inline.
+    static constexpr std::size_t inline_tets = 28;
+    using tet_list = boost::container::small_vector<index_t, inline_tets>;
+
+    indexed_tet() = default;
+
+    void build(index_t n_vertices, const std::vector<tet_indices>& tets) {
+        tv_ = tets;
+        version_.assign(tets.size(), 0);
+        vt_.assign(n_vertices, {});
+        valive_.assign(n_vertices, 1);
+        free_tets_.clear(), free_vertices_.clear();
+        for (index_t t = 0; t < tets.size(); ++t)
+            for (index_t v : tets[t]) vt_[v].push_back(t);
+    }
+    void reserve(index_t vertices, index_t tets) {
+        tv_.reserve(tets), version_.reserve(tets), vt_.reserve(vertices), valive_.reserve(vertices);
+    }
+
+    index_t vertex_slots() const noexcept { return static_cast<index_t>(vt_.size()); }
+    index_t tet_slots() const noexcept { return static_cast<index_t>(tv_.size()); }
+    bool vertex_alive(index_t v) const noexcept { return valive_[v] != 0; }
+    bool tet_alive(index_t t) const noexcept { return tv_[t][0] != invalid_index; }
+    const tet_indices& tet_vertices(index_t t) const noexcept { return tv_[t]; }
+    version_t tet_version(index_t t) const noexcept { return version_[t]; }
+    std::span<const index_t> vertex_tets(index_t v) const noexcept {
+        return {vt_[v].data(), vt_[v].size()};
+    }
+
+    /// The tet across local face `lf` (the face opposite local vertex lf) of `t`, or
+    /// invalid_index on the boundary.
+    index_t opposite_tet(index_t t, std::uint8_t lf) const noexcept {
+        const auto& tv = tv_[t];
+        const index_t x = tv[(lf + 1) % 4], y = tv[(lf + 2) % 4], z = tv[(lf + 3) % 4];
+        for (index_t g : vt_[x]) {
+            if (g == t) continue;
+            const auto& gv = tv_[g];
+            if (contains(gv, y) && contains(gv, z)) return g;
+        }
+        return invalid_index;
+    }
+
+    std::size_t memory_bytes() const noexcept {
+        std::size_t bytes = tv_.capacity() * sizeof(tet_indices) +
+                            version_.capacity() * sizeof(version_t) +
+                            vt_.capacity() * sizeof(tet_list) + valive_.capacity() +
+                            (free_tets_.capacity() + free_vertices_.capacity()) * sizeof(index_t);
+        for (const auto& l : vt_)
+            if (l.capacity() > inline_tets) bytes += l.capacity() * sizeof(index_t);
+        return bytes;
+    }
+
+    // ---- journaled mutation ----
+
+    // Dead slots are recycled newest first, so long runs keep the arrays at a steady
+    // size. A recycled tet slot keeps counting versions, so old tuples to it stay stale.
+    index_t add_vertex(undo_log& log) {
+        if (!free_vertices_.empty()) {
+            const index_t v = free_vertices_.back();
+            free_vertices_.pop_back();
+            valive_[v] = 1;
+            log.push_back({undo_entry::what::vertex_reused, v});
+            return v;
+        }
+        vt_.emplace_back();
+        valive_.push_back(1);
+        const index_t v = vertex_slots() - 1;
+        log.push_back({undo_entry::what::vertex_added, v});
+        return v;
+    }
+    void remove_vertex(index_t v, undo_log& log) {
+        assert(vt_[v].empty());
+        valive_[v] = 0;
+        free_vertices_.push_back(v);
+        log.push_back({undo_entry::what::vertex_removed, v});
+    }
+    index_t add_tet(const tet_indices& t, undo_log& log) {
+        index_t id;
+        if (!free_tets_.empty()) {
+            id = free_tets_.back();
+            free_tets_.pop_back();
+            log.push_back({undo_entry::what::free_tet_popped, id});
+            save_tet(id, log);
+            tv_[id] = t;
+            ++version_[id];
+        } else {
+            tv_.push_back(t);
+            version_.push_back(0);
+            id = tet_slots() - 1;
+            log.push_back({undo_entry::what::tet_added, id});
+        }
+        for (index_t v : t) vt_insert(v, id, log);
+        return id;
+    }
+    void remove_tet(index_t t, undo_log& log) {
+        save_tet(t, log);
+        for (index_t v : tv_[t]) vt_erase(v, t, log);
+        tv_[t] = {invalid_index, invalid_index, invalid_index, invalid_index};
+        ++version_[t];
+        free_tets_.push_back(t);
+        log.push_back({undo_entry::what::free_tet_pushed, t});
+    }
+    /// Rewrites a tet in place (same slot, new version).
+    void set_tet(index_t t, const tet_indices& nv, undo_log& log) {
+        save_tet(t, log);
+        const tet_indices old = tv_[t];
+        for (index_t v : old)
+            if (!contains(nv, v)) vt_erase(v, t, log);
+        for (index_t v : nv)
+            if (!contains(old, v)) vt_insert(v, t, log);
+        tv_[t] = nv;
+        ++version_[t];
+    }
+    /// Marks a tet changed (a vertex moved) so tuples made before go stale.
+    void touch_tet(index_t t, undo_log& log) {
+        save_tet(t, log);
+        ++version_[t];
+    }
+
+    void rollback(undo_log& log, std::size_t mark) {
+        using w = undo_entry::what;
+        while (log.size() > mark) {
+            const undo_entry e = log.back();
+            log.pop_back();
+            switch (e.kind) {
+            case w::tet_set: tv_[e.a] = e.verts, version_[e.a] = e.version; break;
+            case w::tet_added:
+                assert(e.a + 1 == tv_.size());
+                tv_.pop_back(), version_.pop_back();
+                break;
+            case w::vertex_added:
+                assert(e.a + 1 == vt_.size());
+                vt_.pop_back(), valive_.pop_back();
+                break;
+            case w::vertex_removed:
+                valive_[e.a] = 1;
+                free_vertices_.pop_back();
+                break;
+            case w::vertex_reused:
+                valive_[e.a] = 0;
+                free_vertices_.push_back(e.a);
+                break;
+            case w::free_tet_pushed: free_tets_.pop_back(); break;
+            case w::free_tet_popped: free_tets_.push_back(e.a); break;
+            case w::vt_insert:
+                assert(!vt_[e.a].empty() && vt_[e.a].back() == e.b);
+                vt_[e.a].pop_back();
+                break;
+            case w::vt_erase: vt_[e.a].insert(vt_[e.a].begin() + e.c, e.b); break;
+            }
+        }
+    }
+
+    friend bool operator==(const indexed_tet& x, const indexed_tet& y) {
+        return x.tv_ == y.tv_ && x.version_ == y.version_ && x.valive_ == y.valive_ &&
+               x.vt_ == y.vt_ && x.free_tets_ == y.free_tets_ &&
+               x.free_vertices_ == y.free_vertices_;
+    }
+
+private:
+    static bool contains(const tet_indices& t, index_t v) noexcept {
+        return t[0] == v || t[1] == v || t[2] == v || t[3] == v;
+    }
+    void save_tet(index_t t, undo_log& log) {
+        log.push_back({undo_entry::what::tet_set, t, 0, 0, tv_[t], version_[t]});
+    }
+    void vt_insert(index_t v, index_t t, undo_log& log) {
+        vt_[v].push_back(t);
+        log.push_back({undo_entry::what::vt_insert, v, t});
+    }
+    void vt_erase(index_t v, index_t t, undo_log& log) {
+        auto& l = vt_[v];
+        auto it = std::find(l.begin(), l.end(), t);
+        assert(it != l.end());
+        const auto pos = static_cast<index_t>(it - l.begin());
+        l.erase(it); // order-preserving, so the undo restores the list exactly
+        log.push_back({undo_entry::what::vt_erase, v, t, pos});
+    }
+
+    std::vector<tet_indices> tv_;
+    std::vector<version_t> version_;
+    std::vector<tet_list> vt_;
+    std::vector<std::uint8_t> valive_;
+    std::vector<index_t> free_tets_, free_vertices_;
+};
+
+static_assert(tet_connectivity<indexed_tet>);
+
+} // namespace idas::backend
