@@ -145,7 +145,8 @@ core = ["## Triangle core", "",
         "`bench_tri_core` on data/bunny.obj. The method (batches on fresh copies for commits,",
         "in-place cycling for rollbacks, independent edge sets, counting allocator) is",
         "described at the top of bench/bench_tri_core.cpp. Times below are CPU time; when the",
-        "machine is loaded, wall time (the \"Time\" column) is larger.", ""]
+        "machine is loaded, wall time (the \"Time\" column) is larger. The \"Library was built",
+        "as DEBUG\" warning in the output is about Debian's libbenchmark package, not idas.", ""]
 core += header(os.environ["CORE_CMD"])
 core += summary(os.path.join(work, "core.json"))
 core += ["Full output:", "", "```text", open(os.path.join(work, "core.txt")).read().rstrip(), "```", ""]

@@ -380,6 +380,31 @@ TEST_CASE("rational: exact conversion and correctly rounded to_double") {
     CHECK(idas::to_vec3(rp) == p);
 }
 
+TEST_CASE("rational: detection of rationals that are exactly doubles") {
+    double out = -1;
+    auto exact = [&](const mpq_class& q) { return dp::exact_double(q, out); };
+    CHECK(exact(mpq_class(0)));
+    CHECK(out == 0.0);
+    CHECK(exact(mpq_class(-5, 8)));
+    CHECK(out == -0.625);
+    CHECK(exact(idas::to_rational(0x1p-1074)));
+    CHECK(out == 0x1p-1074);
+    CHECK(exact(idas::to_rational(-0x1.fffffffffffffp1023)));
+    CHECK(out == -0x1.fffffffffffffp1023);
+    CHECK(exact(idas::to_rational(0x1.0000000000001p-1000)));
+    CHECK(out == 0x1.0000000000001p-1000);
+    CHECK_FALSE(exact(mpq_class(1, 3)));
+    CHECK_FALSE(exact(idas::to_rational(0x1p-1074) / 2));  // below the subnormal grid
+    CHECK_FALSE(exact(idas::to_rational(0x1p1023) * 2));   // 2^1024 overflows
+    CHECK_FALSE(exact(mpq_class(mpz_class(1) << 53) + 1)); // 54 significant bits
+    CHECK(exact(mpq_class(mpz_class(1) << 53) + 2));       // 53 bits
+    CHECK(exact(mpq_class(mpz_class(3) << 1000)));
+    CHECK(out == 0x3p1000);
+    CHECK(exact(idas::to_rational(0x1p-1060) * 3 / 4)); // subnormal 3 * 2^-1062
+    CHECK(out == 0x3p-1062);
+    CHECK_FALSE(exact(idas::to_rational(0x1p-1074) * 3 / 2)); // 3 * 2^-1075
+}
+
 TEST_CASE("rational: orient3d agrees with the double predicate and the reference") {
     std::mt19937_64 rng(2024);
     std::uniform_real_distribution<double> unit(-1.0, 1.0);
@@ -391,8 +416,10 @@ TEST_CASE("rational: orient3d agrees with the double predicate and the reference
                         : vec3{double(grid(rng)), double(grid(rng)), 0.5 * grid(rng)};
         if (rep % 4 == 1) p[3] = p[0] + 0.25 * (p[1] - p[0]) + 0.375 * (p[2] - p[0]);
         const int s = idas::orient3d(p[0], p[1], p[2], p[3]);
-        REQUIRE(idas::orient3d(idas::to_rational(p[0]), idas::to_rational(p[1]),
-                               idas::to_rational(p[2]), idas::to_rational(p[3])) == s);
+        const idas::rational_point q0 = idas::to_rational(p[0]), q1 = idas::to_rational(p[1]),
+                                   q2 = idas::to_rational(p[2]), q3 = idas::to_rational(p[3]);
+        REQUIRE(idas::orient3d(q0, q1, q2, q3) == s);            // double fast path
+        REQUIRE(dp::orient3d_rational_mpz(q0, q1, q2, q3) == s); // integer path
         REQUIRE(s == ref_orient3d(p[0], p[1], p[2], p[3]));
     }
     // Genuine rationals with unrelated denominators.
@@ -416,6 +443,7 @@ TEST_CASE("rational: orient3d agrees with the double predicate and the reference
         }
         const int s = idas::orient3d(p[0], p[1], p[2], p[3]);
         REQUIRE(s == ref_orient3d_q(ref[0], ref[1], ref[2], ref[3]));
+        REQUIRE(dp::orient3d_rational_mpz(p[0], p[1], p[2], p[3]) == s);
         REQUIRE(idas::orient3d(p[1], p[0], p[2], p[3]) == -s);
         REQUIRE(idas::orient3d(p[1], p[2], p[0], p[3]) == s);
         if (rep % 3 == 0) REQUIRE(s == 0);

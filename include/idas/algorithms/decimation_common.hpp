@@ -26,6 +26,8 @@ void push_star_edges(const Mesh& m, const op_result<typename Mesh::tuple>& r, Pu
 struct face_target {
     std::int64_t target_faces = 0;
     bool stop(const progress& p) const noexcept { return p.faces <= target_faces; }
+    /// A collapse removes two faces (one on the boundary).
+    std::int64_t remaining(const progress& p) const noexcept { return (p.faces - target_faces) / 2; }
 };
 
 } // namespace idas::algorithms

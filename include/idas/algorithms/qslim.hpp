@@ -143,7 +143,7 @@ struct qslim_spec : face_target {
     }
 };
 
-template <class Mesh = tri_mesh<>, class Lock = lock::vertex_try_lock, class Queue = queue::binary_heap,
+template <class Mesh = tri_mesh<>, class Lock = lock::vertex_try_lock, class Queue = queue::dary_heap<4>,
           class Partition = partition::morton>
 using qslim = executor<qslim_spec, Mesh, Lock, Queue, Partition>;
 

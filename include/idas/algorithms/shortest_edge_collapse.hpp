@@ -52,7 +52,7 @@ struct shortest_edge_collapse_spec : face_target {
 
 /// The algorithm as a type: spec + data structure + lock + queue + partition.
 template <bool NoNormalFlip = true, class Mesh = tri_mesh<>, class Lock = lock::vertex_try_lock,
-          class Queue = queue::binary_heap, class Partition = partition::morton>
+          class Queue = queue::dary_heap<4>, class Partition = partition::morton>
 using shortest_edge_collapse = executor<shortest_edge_collapse_spec<NoNormalFlip>, Mesh, Lock, Queue, Partition>;
 
 } // namespace idas::algorithms

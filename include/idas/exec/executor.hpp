@@ -7,6 +7,10 @@
 //   priority(Op, mesh, tuple) -> double      lower runs first (default 0)
 //   renew(Op, mesh, result, push)            what to enqueue after a success: push(Op{}, tuple)
 //   stop(const progress&) -> bool            stopping criterion (default: queue exhausted)
+//   remaining(const progress&) -> int64      successes still wanted, if known: parallel
+//                                            workers then stop right after the success that
+//                                            reaches the goal, so the overshoot is bounded by
+//                                            the operations in flight (one per other worker)
 //   should_process(Op, mesh, entry) -> bool  skip an entry (default: always process)
 //   initial(mesh, push)                      what to enqueue first (default: every edge for
 //                                            edge operations, every vertex for smoothing)
@@ -25,6 +29,7 @@
 #include <idas/ops/tri_ops.hpp>
 
 #include <boost/container/small_vector.hpp>
+#include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 #include <tbb/spin_mutex.h>
 #include <tbb/task_arena.h>
@@ -52,12 +57,12 @@ struct progress {
 struct exec_options {
     unsigned threads = 1;
     unsigned max_retry = 8;      // lock failures before an entry goes to the final serial pass
-    unsigned check_every = 32;   // successes between stop checks per worker (parallel only)
+    unsigned check_every = 32;   // successes between `stop` checks per worker (parallel only)
     unsigned parts_per_thread = 1;
 };
 
 struct run_report {
-    std::uint64_t popped = 0, stale = 0, skipped = 0, attempted = 0, succeeded = 0, refused = 0;
+    std::uint64_t pushed = 0, popped = 0, stale = 0, skipped = 0, attempted = 0, succeeded = 0, refused = 0;
     std::uint64_t lock_failures = 0, deferred_to_serial = 0, stolen = 0;
     std::int64_t faces = 0, vertices = 0;
     unsigned threads = 1;
@@ -143,6 +148,14 @@ public:
         if constexpr (requires { spec.renew(Op{}, m, r, push); }) spec.renew(Op{}, m, r, push);
     }
 
+    /// A spec that knows how many successes it still wants lets parallel workers stop
+    /// right after the success that reaches the goal, not at the next periodic check.
+    static bool goal_reached(Spec& spec, const progress& p) {
+        if constexpr (requires { { spec.remaining(p) } -> std::convertible_to<std::int64_t>; })
+            return spec.remaining(p) <= 0;
+        else return false;
+    }
+
     static bool should_stop(Spec& spec, const progress& p) {
         if constexpr (requires { { spec.stop(p) } -> std::convertible_to<bool>; }) return spec.stop(p);
         else return false;
@@ -165,12 +178,13 @@ private:
         auto& ctx = thread_context<Mesh>();
         queue_type q;
         q.reserve(3 * std::size_t(m.face_slots()));
+        run_report report;
         initial(spec, m, [&](auto op, const tuple& t) {
             using Op = decltype(op);
             q.push({priority_of<Op>(spec, m, t), t, Op::id, 0});
+            ++report.pushed;
         });
         progress p = counts(m);
-        run_report report;
         drain_serial(m, spec, ctx, q, p, report);
         report.faces = p.faces, report.vertices = p.vertices;
         return report;
@@ -206,6 +220,7 @@ private:
                 renew<Op>(spec, m, *r, [&](auto nop, const tuple& t) {
                     using NOp = decltype(nop);
                     q.push({priority_of<NOp>(spec, m, t), t, NOp::id, 0});
+                    ++report.pushed;
                 });
                 done = should_stop(spec, p);
             });
@@ -226,8 +241,6 @@ private:
         std::vector<entry> deferred;
         op_context<Mesh> ctx;
         run_report report;
-        std::atomic<std::int64_t> published_faces{0}, published_vertices{0};
-        std::uint64_t successes = 0;
     };
 
     using held_vertices = boost::container::small_vector<index_t, 64>;
@@ -274,6 +287,9 @@ private:
     static run_report run_parallel(Mesh& m, Spec& spec, const exec_options& o) {
         const unsigned T = o.threads;
         const unsigned P = T * std::max(1u, o.parts_per_thread);
+        // Allow more threads than cores when asked (contention tests); oneTBB caps at the
+        // core count otherwise.
+        tbb::global_control allow(tbb::global_control::max_allowed_parallelism, T);
         Lock locks(m.vertex_slots());
         m.set_slot_recycling(false);
         std::vector<std::unique_ptr<worker_state>> workers;
@@ -281,12 +297,14 @@ private:
 
         // Initial entries go to the part of their tuple's vertex.
         const std::vector<std::uint32_t> part = Partition::assign(m, P);
+        std::uint64_t initial_count = 0;
         {
             std::vector<entry> all;
             initial(spec, m, [&](auto op, const tuple& t) {
                 using Op = decltype(op);
                 all.push_back({0.0, t, Op::id, 0});
             });
+            initial_count = all.size();
             tbb::task_arena arena(static_cast<int>(T));
             arena.execute([&] {
                 tbb::parallel_for(0u, P, [&](unsigned w) {
@@ -306,13 +324,13 @@ private:
         std::vector<entry> final_pass;
         tbb::spin_mutex final_mutex;
 
+        // Live counts, updated after every success: one atomic add per operation buys an
+        // exact view for the stopping criterion.
+        std::atomic<std::int64_t> live_faces{start.faces}, live_vertices{start.vertices};
+        std::atomic<std::uint64_t> live_successes{0};
         auto global_progress = [&] {
-            progress p = start;
-            for (auto& w : workers) {
-                p.faces += w->published_faces.load(std::memory_order_relaxed);
-                p.vertices += w->published_vertices.load(std::memory_order_relaxed);
-            }
-            return p;
+            return progress{live_faces.load(std::memory_order_relaxed), live_vertices.load(std::memory_order_relaxed),
+                            live_successes.load(std::memory_order_relaxed)};
         };
 
         auto drain = [&](unsigned w) {
@@ -326,6 +344,7 @@ private:
                     tbb::spin_mutex::scoped_lock lk(me.mutex);
                     if (me.q.pop(e)) return true;
                     if (!me.deferred.empty()) {
+                        me.report.pushed += me.deferred.size();
                         for (const auto& d : me.deferred) me.q.push(d);
                         me.deferred.clear();
                         if (me.q.pop(e)) return true;
@@ -371,6 +390,7 @@ private:
                         return;
                     }
                     ++me.report.attempted;
+                    const std::int64_t fd = me.ctx.face_delta, vd = me.ctx.vertex_delta;
                     auto r = apply(Op{}, m, e.tuple, spec, me.ctx);
                     if (!r) {
                         ++me.report.refused;
@@ -387,17 +407,19 @@ private:
                     {
                         tbb::spin_mutex::scoped_lock lk(me.mutex);
                         for (const auto& x : renewed) me.q.push(x);
+                        me.report.pushed += renewed.size();
                     }
+                    const std::int64_t dfaces = me.ctx.face_delta - fd, dverts = me.ctx.vertex_delta - vd;
+                    const progress now{live_faces.fetch_add(dfaces, std::memory_order_relaxed) + dfaces,
+                                       live_vertices.fetch_add(dverts, std::memory_order_relaxed) + dverts,
+                                       live_successes.fetch_add(1, std::memory_order_relaxed) + 1};
+                    if (goal_reached(spec, now)) stop.store(true, std::memory_order_relaxed);
                     if (++since_check >= o.check_every) {
                         since_check = 0;
-                        me.published_faces.store(me.ctx.face_delta, std::memory_order_relaxed);
-                        me.published_vertices.store(me.ctx.vertex_delta, std::memory_order_relaxed);
-                        if (should_stop(spec, global_progress())) stop.store(true, std::memory_order_relaxed);
+                        if (should_stop(spec, now)) stop.store(true, std::memory_order_relaxed);
                     }
                 });
             }
-            me.published_faces.store(me.ctx.face_delta, std::memory_order_relaxed);
-            me.published_vertices.store(me.ctx.vertex_delta, std::memory_order_relaxed);
         };
 
         {
@@ -409,9 +431,10 @@ private:
 
         run_report report;
         report.threads = T;
+        report.pushed = initial_count;
         for (auto& w : workers) {
             auto& r = w->report;
-            report.popped += r.popped, report.stale += r.stale, report.skipped += r.skipped;
+            report.pushed += r.pushed, report.popped += r.popped, report.stale += r.stale, report.skipped += r.skipped;
             report.attempted += r.attempted, report.succeeded += r.succeeded, report.refused += r.refused;
             report.lock_failures += r.lock_failures, report.deferred_to_serial += r.deferred_to_serial;
             report.stolen += r.stolen;
@@ -421,12 +444,15 @@ private:
         // Final serial pass: entries that kept losing lock races, then anything left.
         progress p = global_progress();
         if (!stop.load() && !should_stop(spec, p)) {
+            // Leftovers move over as they are; deferred and final-pass entries are pushed anew.
             queue_type q;
             for (const auto& x : final_pass) q.push(x);
+            report.pushed += final_pass.size();
             for (auto& w : workers) {
                 entry x;
                 while (w->q.pop(x)) q.push(x);
                 for (const auto& d : w->deferred) q.push(d);
+                report.pushed += w->deferred.size();
             }
             drain_serial(m, spec, thread_context<Mesh>(), q, p, report);
         }

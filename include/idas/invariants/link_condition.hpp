@@ -15,53 +15,59 @@
 namespace idas {
 
 namespace detail {
-inline constexpr index_t omega = invalid_index - 1; // the virtual boundary vertex
 
+/// One-ring of v (unsorted, each vertex once); tells whether v is on the boundary
+/// (an open fan has one more neighbour than faces).
+template <class Mesh, class Ring>
+bool ring_of(const Mesh& m, index_t v, Ring& ring) {
+    std::size_t faces = 0;
+    for (index_t f : m.vertex_faces(v)) {
+        ++faces;
+        for (index_t w : m.face_vertices(f))
+            if (w != v && std::find(ring.begin(), ring.end(), w) == ring.end()) ring.push_back(w);
+    }
+    return ring.size() != faces;
+}
+
+/// Is there a face (v, x, y)?
 template <class Mesh>
-void vertex_link(const Mesh& m, index_t a, boost::container::small_vector<index_t, 64>& verts,
-                 boost::container::small_vector<std::pair<index_t, index_t>, 32>& edges) {
-    for (index_t f : m.vertex_faces(a)) {
+bool has_face(const Mesh& m, index_t v, index_t x, index_t y) {
+    for (index_t f : m.vertex_faces(v)) {
         const auto& fv = m.face_vertices(f);
-        const std::uint8_t i = fv[0] == a ? 0 : (fv[1] == a ? 1 : 2);
-        const index_t x = fv[(i + 1) % 3], y = fv[(i + 2) % 3];
-        verts.push_back(x), verts.push_back(y);
-        edges.push_back(std::minmax(x, y));
-        // The face's edges at a are (a,x), opposite corner i+2, and (a,y), opposite corner i+1.
-        if (m.connectivity().opposite_face(f, static_cast<std::uint8_t>((i + 2) % 3)) == invalid_index)
-            verts.push_back(omega), edges.push_back(std::minmax(x, omega));
-        if (m.connectivity().opposite_face(f, static_cast<std::uint8_t>((i + 1) % 3)) == invalid_index)
-            verts.push_back(omega), edges.push_back(std::minmax(y, omega));
+        const bool hx = fv[0] == x || fv[1] == x || fv[2] == x;
+        const bool hy = fv[0] == y || fv[1] == y || fv[2] == y;
+        if (hx && hy) return true;
     }
-    std::sort(verts.begin(), verts.end());
-    verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
-    std::sort(edges.begin(), edges.end());
-    edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+    return false;
 }
 
-template <class Range>
-std::size_t count_common(const Range& a, const Range& b) {
-    std::size_t n = 0;
-    for (auto i = a.begin(), j = b.begin(); i != a.end() && j != b.end();) {
-        if (*i < *j) ++i;
-        else if (*j < *i) ++j;
-        else ++n, ++i, ++j;
-    }
-    return n;
-}
 } // namespace detail
 
 /// True iff collapsing the tuple's edge leaves a 2-manifold with the same topology.
+///
+/// With the boundary coned to ω, lk(ab) is always two vertices: the two opposite vertices
+/// c, d of an interior edge, or c and ω for a boundary edge. The vertex condition is
+/// |lk(a) ∩ lk(b)| = 2; the edge condition (links share no edge) can only fail on the
+/// pair lk(ab) itself: faces acd and bcd both exist (a tetrahedron), or, on the boundary,
+/// ac and bc are both boundary edges (an isolated ear).
 template <class Mesh>
 bool link_condition_holds(const Mesh& m, const typename Mesh::tuple& t) {
     const auto [a, b] = m.edge_vertices(t);
-    boost::container::small_vector<index_t, 64> la, lb;
-    boost::container::small_vector<std::pair<index_t, index_t>, 32> ea, eb;
-    detail::vertex_link(m, a, la, ea);
-    detail::vertex_link(m, b, lb, eb);
-    // lk(ab) always has two vertices: the two opposite vertices, or one and ω.
-    if (detail::count_common(la, lb) != 2) return false;
-    // lk(ab) has no edges, so the links may share none.
-    return detail::count_common(ea, eb) == 0;
+    boost::container::small_vector<index_t, 32> ra, rb;
+    const bool boundary_a = detail::ring_of(m, a, ra);
+    const bool boundary_b = detail::ring_of(m, b, rb);
+    std::size_t common = (boundary_a && boundary_b) ? 1 : 0; // ω
+    for (index_t x : ra) common += std::find(rb.begin(), rb.end(), x) != rb.end() ? 1 : 0;
+    if (common != 2) return false;
+    const index_t c = m.opposite_vertex(t);
+    if (const auto g = m.switch_face(t)) {
+        const index_t d = m.opposite_vertex(*g);
+        return !(detail::has_face(m, a, c, d) && detail::has_face(m, b, c, d));
+    }
+    // Boundary edge ab in face abc: refuse if ac and bc are boundary edges too.
+    const auto ac = m.switch_edge(t);                   // at a, edge (a, c)
+    const auto bc = m.switch_edge(m.switch_vertex(t));  // at b, edge (b, c)
+    return !(m.is_boundary_edge(ac) && m.is_boundary_edge(bc));
 }
 
 /// Invariant form, for specs that list it explicitly. collapse_edge always enforces it.

@@ -18,6 +18,7 @@
 #include <array>
 #include <cassert>
 #include <cmath>
+#include <cstddef>
 #include <limits>
 
 namespace idas {
@@ -48,11 +49,39 @@ inline rational_point to_rational(const vec3& p) {
     return {to_rational(p.x), to_rational(p.y), to_rational(p.z)};
 }
 
+namespace detail::predicates {
+
+/// If q is exactly a double (dyadic, at most 53 significant bits, in range), stores it in
+/// `out` and returns true. Allocation-free, so it is a cheap fast path.
+inline bool exact_double(const mpq_class& q, double& out) noexcept {
+    mpz_srcptr num = q.get_num_mpz_t();
+    mpz_srcptr den = q.get_den_mpz_t(); // canonical: > 0
+    if (mpz_sgn(num) == 0) {
+        out = 0.0;
+        return true;
+    }
+    const mp_bitcnt_t k = mpz_scan1(den, 0); // den == 2^k iff it has k + 1 bits
+    if (mpz_sizeinbase(den, 2) != k + 1) return false;
+    const mp_bitcnt_t t = mpz_scan1(num, 0); // trailing zeros (same for -num)
+    const std::size_t bits = mpz_sizeinbase(num, 2);
+    if (bits - t > 53) return false;
+    const long lsb = static_cast<long>(t) - static_cast<long>(k);
+    const long msb = static_cast<long>(bits) - 1 - static_cast<long>(k);
+    if (lsb < -1074 || msb > 1023) return false;
+    long e = 0;
+    const double m = mpz_get_d_2exp(&e, num); // exact: at most 53 significant bits
+    out = std::ldexp(m, static_cast<int>(e - static_cast<long>(k)));
+    return true;
+}
+
+} // namespace detail::predicates
+
 /// Nearest double to q (IEEE round-half-to-even), including gradual underflow and
 /// overflow to +-infinity. (mpq_get_d truncates, so it is not used.)
 inline double to_double(const mpq_class& q) {
+    double exact = 0.0;
+    if (detail::predicates::exact_double(q, exact)) return exact;
     const int s = sgn(q);
-    if (s == 0) return 0.0;
     mpz_class n = abs(q.get_num());
     mpz_class d = q.get_den(); // > 0
 
@@ -118,21 +147,36 @@ inline void rational_row(const rational_point& p, const rational_point& a,
     }
 }
 
-} // namespace detail::predicates
-
-/// Exact sign of det[b - a, c - a, d - a] for rational points (same convention as
-/// idas::orient3d on doubles).
-inline int orient3d(const rational_point& a, const rational_point& b, const rational_point& c,
-                    const rational_point& d) {
+/// orient3d on rational points with integer arithmetic only (no fast path).
+inline int orient3d_rational_mpz(const rational_point& a, const rational_point& b,
+                                 const rational_point& c, const rational_point& d) {
     // Scaling each row by a positive factor keeps the sign, so clear denominators per row
     // and work on integers (no gcd normalisation inside the determinant).
     std::array<mpz_class, 3> u, v, w;
-    detail::predicates::rational_row(b, a, u);
-    detail::predicates::rational_row(c, a, v);
-    detail::predicates::rational_row(d, a, w);
+    rational_row(b, a, u);
+    rational_row(c, a, v);
+    rational_row(d, a, w);
     const mpz_class det = u[0] * (v[1] * w[2] - v[2] * w[1]) + u[1] * (v[2] * w[0] - v[0] * w[2]) +
                           u[2] * (v[0] * w[1] - v[1] * w[0]);
     return sgn(det);
+}
+
+} // namespace detail::predicates
+
+/// Exact sign of det[b - a, c - a, d - a] for rational points (same convention as
+/// idas::orient3d on doubles). When every coordinate is exactly a double (e.g. points made
+/// by to_rational), the exact double predicate is used; otherwise GMP integers.
+inline int orient3d(const rational_point& a, const rational_point& b, const rational_point& c,
+                    const rational_point& d) {
+    namespace dp = detail::predicates;
+    std::array<vec3, 4> pd;
+    const std::array<const rational_point*, 4> pq{&a, &b, &c, &d};
+    bool all_double = true;
+    for (int i = 0; i < 4 && all_double; ++i)
+        for (int k = 0; k < 3 && all_double; ++k)
+            all_double = dp::exact_double((*pq[i])[k], pd[i][k]);
+    if (all_double) return orient3d(pd[0], pd[1], pd[2], pd[3]);
+    return dp::orient3d_rational_mpz(a, b, c, d);
 }
 
 /// Orientation of four rational points exactly and after rounding every coordinate to
