@@ -7,6 +7,8 @@
 //
 // Exit codes: 0 success; 2 bad input or usage; 1 any other failure. Errors go to stderr
 // and start with "idas: error: "; with --json, stdout holds exactly one JSON object.
+#include <idas/algorithms/qslim.hpp>
+#include <idas/algorithms/shortest_edge_collapse.hpp>
 #include <idas/idas.hpp>
 #include <idas/io/io.hpp>
 
@@ -15,6 +17,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <atomic>
 #include <charconv>
 #include <chrono>
 #include <cmath>
@@ -28,6 +31,8 @@
 #include <random>
 #include <string>
 #include <vector>
+
+#include <unistd.h> // isatty: the progress bar is drawn on terminals only
 
 namespace {
 
@@ -527,6 +532,115 @@ int run_demo(const std::string& in, const std::string& out, bool as_json, std::u
     return 0;
 }
 
+// ---- decimate ------------------------------------------------------------------------------
+
+/// Wraps a decimation spec to draw a progress bar on a terminal. The executor calls
+/// `stop` after every success (serial) or every few (parallel workers): the bar is
+/// redrawn at most ten times a second, by whichever thread gets there first, and only
+/// once the run has lasted a second.
+template <class Base>
+struct with_progress_bar : Base {
+    std::int64_t start_faces = 0;
+    bool enabled = false;
+    std::chrono::steady_clock::time_point started = std::chrono::steady_clock::now();
+    std::atomic<std::int64_t> next_draw_ms{1000};
+    std::atomic<bool> drawn{false};
+
+    bool stop(const idas::progress& p) {
+        if (enabled && (p.successes & 255) == 0) {
+            const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(
+                                std::chrono::steady_clock::now() - started)
+                                .count();
+            std::int64_t due = next_draw_ms.load(std::memory_order_relaxed);
+            if (ms >= due && next_draw_ms.compare_exchange_strong(due, ms + 100)) {
+                const double done = double(start_faces - p.faces) /
+                                    double(std::max<std::int64_t>(1, start_faces - this->target_faces));
+                const int width = 40, filled = static_cast<int>(std::clamp(done, 0.0, 1.0) * width);
+                std::fprintf(stderr, "\rdecimate [%s%s] %3.0f%%  %lld faces", std::string(filled, '#').c_str(),
+                             std::string(width - filled, '.').c_str(), 100 * std::clamp(done, 0.0, 1.0),
+                             static_cast<long long>(p.faces));
+                drawn = true;
+            }
+        }
+        return Base::stop(p);
+    }
+    void finish() {
+        if (drawn) std::fprintf(stderr, "\n");
+    }
+};
+
+template <class Algorithm, class Spec>
+idas::run_report decimate_with(mesh_t& m, std::int64_t target, unsigned threads) {
+    with_progress_bar<Spec> spec;
+    spec.target_faces = target;
+    spec.start_faces = static_cast<std::int64_t>(m.n_faces());
+    spec.enabled = isatty(fileno(stderr)) != 0;
+    idas::exec_options options;
+    options.threads = threads;
+    const auto report = Algorithm::run(m, spec, options);
+    spec.finish();
+    return report;
+}
+
+int run_decimate(const std::string& in, const std::string& out, const std::string& algorithm, double ratio,
+                 std::int64_t faces, unsigned threads, bool as_json, bool ascii) {
+    using namespace idas::algorithms;
+    const stopwatch total;
+    idas::io::format_of(out); // an unknown output extension fails before any work
+    if (threads == 0) throw idas::input_error("--threads must be at least 1");
+    const idas::io::surface s = load(in);
+    std::optional<mesh_t> built;
+    try {
+        built.emplace(s.vertices, s.faces);
+    } catch (const idas::input_error& e) {
+        throw idas::input_error(in + ": " + e.what());
+    }
+    mesh_t& m = *built;
+    const auto input_faces = static_cast<std::int64_t>(m.n_faces());
+    std::int64_t target = faces;
+    if (ratio >= 0) {
+        if (!(ratio > 0 && ratio <= 1)) throw idas::input_error("--ratio must be in (0, 1]");
+        target = static_cast<std::int64_t>(std::llround(ratio * double(input_faces)));
+    }
+    if (target < 0) throw idas::input_error("--faces must be non-negative");
+
+    idas::run_report r;
+    if (algorithm == "qslim") r = decimate_with<qslim<mesh_t>, qslim_spec>(m, target, threads);
+    else r = decimate_with<shortest_edge_collapse<true, mesh_t>, shortest_edge_collapse_spec<true>>(m, target, threads);
+
+    idas::io::surface result;
+    std::tie(result.vertices, result.faces) = m.to_arrays();
+    save(out, result, ascii);
+    const auto output_faces = static_cast<std::int64_t>(result.faces.size());
+    if (as_json) {
+        json j;
+        j["input"] = in;
+        j["output"] = out;
+        j["algorithm"] = algorithm;
+        j["input_faces"] = input_faces;
+        j["target_faces"] = target;
+        j["output_faces"] = output_faces;
+        j["output_vertices"] = result.vertices.size();
+        j["threads"] = threads;
+        j["seconds_algorithm"] = r.seconds;
+        j["seconds_total"] = total.seconds();
+        j["collapses"] = r.succeeded;
+        j["refused"] = r.refused;
+        j["stale_entries"] = r.stale;
+        j["lock_failures"] = r.lock_failures;
+        j["deferred_to_serial"] = r.deferred_to_serial;
+        fmt::print("{}\n", j.dump(2));
+    } else {
+        fmt::print("{}: {} -> {} faces (target {}) by {} on {} thread{} in {:.3f} s ({:.3f} s total)\n", in,
+                   input_faces, output_faces, target, algorithm, threads, threads == 1 ? "" : "s", r.seconds,
+                   total.seconds());
+        fmt::print("  collapses {}, refused {}, stale queue entries {}, lock failures {}\n", r.succeeded,
+                   r.refused, r.stale, r.lock_failures);
+        fmt::print("  written to {}\n", out);
+    }
+    return 0;
+}
+
 // ---- main ----------------------------------------------------------------------------------
 
 int error(int code, const std::string& message) {
@@ -576,6 +690,27 @@ int run(int argc, char** argv) {
         ->capture_default_str();
     demo->add_flag("--ascii", ascii, "write PLY and STL as text instead of binary");
 
+    std::string algorithm = "qslim";
+    double ratio = -1;
+    std::int64_t target_faces = -1;
+    unsigned threads = 1;
+    auto* decimate = app.add_subcommand("decimate", "Decimate by shortest edge collapse or QSlim");
+    decimate->add_option("IN", in, "input mesh file (an orientable 2-manifold)")->required();
+    decimate->add_option("OUT", out, "output mesh file")->required();
+    decimate->add_option("--algorithm", algorithm, "shortest-edge or qslim")
+        ->check(CLI::IsMember({"shortest-edge", "qslim"}))
+        ->capture_default_str();
+    auto* ratio_opt = decimate->add_option("--ratio", ratio, "target face count as a fraction of the input's");
+    auto* faces_opt = decimate->add_option("--faces", target_faces, "target face count");
+    ratio_opt->excludes(faces_opt);
+    decimate->add_option("--threads", threads, "worker threads")->check(unsigned_integer)->capture_default_str();
+    decimate->add_flag("--json", as_json, "print one JSON object instead of text");
+    decimate->add_flag("--ascii", ascii, "write PLY and STL as text instead of binary");
+    decimate->callback([&] {
+        if (ratio_opt->count() + faces_opt->count() != 1)
+            throw CLI::ValidationError("decimate", "give exactly one of --ratio R or --faces N");
+    });
+
     try {
         app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {
@@ -590,6 +725,8 @@ int run(int argc, char** argv) {
     }
 
     if (info->parsed()) return run_info(in, as_json);
+    if (decimate->parsed())
+        return run_decimate(in, out, algorithm, ratio, target_faces, threads, as_json, ascii);
     if (convert->parsed()) return run_convert(in, out, ascii);
     return run_demo(in, out, as_json, seed, n_ops, ascii);
 }

@@ -197,6 +197,43 @@ if cmp -s "$DATA/edge_with_four_triangles.off" "$TMP/keep.off"; then ok; else fa
 run convert "$DATA/bunny.off" "$TMP/out.xyz"
 expect_error "unknown output extension" 2 'xyz'
 
+# ---- decimate --------------------------------------------------------------------------------
+
+for alg in qslim shortest-edge; do
+    for t in 1 2; do
+        run decimate "$DATA/bunny.obj" "$TMP/dec_${alg}_$t.ply" --algorithm "$alg" --ratio 0.1 --threads "$t" --json
+        expect_rc "decimate $alg t=$t" 0
+        expect_one_json "decimate $alg t=$t"
+        expect_field "decimate $alg t=$t" "d['input_faces']" 69451
+        expect_field "decimate $alg t=$t" "d['threads']" "$t"
+        expect_field "decimate $alg t=$t" "abs(d['output_faces'] - 6945) <= 69" True
+        expect_field "decimate $alg t=$t" "d['seconds_algorithm'] <= d['seconds_total']" True
+        run info "$TMP/dec_${alg}_$t.ply" --json
+        expect_field "decimated $alg t=$t" "d['euler_characteristic']" -3
+        expect_field "decimated $alg t=$t" "d['boundary_loops']" 5
+        expect_field "decimated $alg t=$t" "d['nonmanifold_edges'] + d['nonmanifold_vertices']" 0
+    done
+done
+# Serial runs are deterministic, and --faces hits the target exactly.
+run decimate "$DATA/bunny.off" "$TMP/det1.obj" --faces 1000
+run decimate "$DATA/bunny.off" "$TMP/det2.obj" --faces 1000
+if cmp -s "$TMP/det1.obj" "$TMP/det2.obj"; then ok; else fail "decimate: serial output not deterministic"; fi
+run info "$TMP/det1.obj" --json
+expect_field "decimate --faces" "d['faces']" 1000
+run decimate "$DATA/37989_sf.obj" "$TMP/nm.obj" --ratio 0.5
+expect_error "decimate non-manifold" 2 'non-manifold'
+if [ ! -e "$TMP/nm.obj" ]; then ok; else fail "decimate non-manifold: output written"; fi
+run decimate "$DATA/bunny.off" "$TMP/x.obj"
+expect_error "decimate without target" 2
+run decimate "$DATA/bunny.off" "$TMP/x.obj" --ratio 0.5 --faces 10
+expect_error "decimate with both targets" 2
+run decimate "$DATA/bunny.off" "$TMP/x.obj" --ratio 1.5
+expect_error "decimate ratio out of range" 2 'ratio'
+run decimate "$DATA/bunny.off" "$TMP/x.obj" --ratio 0.5 --algorithm magic
+expect_error "decimate unknown algorithm" 2
+run decimate "$DATA/bunny.off" "$TMP/x.obj" --ratio 0.5 --threads 0
+expect_error "decimate zero threads" 2
+
 # ---- help ------------------------------------------------------------------------------------
 
 run --help

@@ -107,6 +107,7 @@ struct tet_spec {
     bool fail_now() { return rng && std::uniform_real_distribution<double>(0, 1)(*rng) < fail_probability; }
 
     void write_cells(tet_mesh<>& m, const op_result<tet_tuple>& r) {
+        if (!edge_length.valid()) return; // not attached to a mesh
         auto len = m.attribute(edge_length);
         auto mark = m.attribute(face_mark);
         auto gen = m.attribute(generation);

@@ -39,6 +39,7 @@
 #include <cstdint>
 #include <memory>
 #include <mutex>
+#include <thread>
 #include <type_traits>
 #include <vector>
 
@@ -87,6 +88,26 @@ struct op_list_traits<op_list<Ops...>> {
 
 template <class Op>
 inline constexpr bool is_vertex_op = std::is_same_v<Op, op::smooth_vertex>;
+
+/// Runs fn(0) ... fn(n - 1) concurrently on `threads` threads and waits for all.
+/// oneTBB normally; under ThreadSanitizer std::thread instead, because Debian's libtbb is
+/// not instrumented and TSan cannot see its joins (every report would be a false one).
+/// The workers' code is the same either way.
+template <class Fn>
+void run_workers(unsigned threads, unsigned n, Fn&& fn) {
+#if defined(__SANITIZE_THREAD__)
+    (void)threads;
+    std::vector<std::thread> pool;
+    for (unsigned i = 0; i < n; ++i) pool.emplace_back([&fn, i] { fn(i); });
+    for (auto& t : pool) t.join();
+#else
+    // Allow more threads than cores when asked (contention tests); oneTBB caps at the
+    // core count otherwise.
+    tbb::global_control allow(tbb::global_control::max_allowed_parallelism, threads);
+    tbb::task_arena arena(static_cast<int>(threads));
+    arena.execute([&] { tbb::parallel_for(0u, n, [&](unsigned i) { fn(i); }, tbb::simple_partitioner{}); });
+#endif
+}
 } // namespace detail
 
 /// A spec the executor can run on Mesh: it lists its operations, each applicable.
@@ -287,9 +308,6 @@ private:
     static run_report run_parallel(Mesh& m, Spec& spec, const exec_options& o) {
         const unsigned T = o.threads;
         const unsigned P = T * std::max(1u, o.parts_per_thread);
-        // Allow more threads than cores when asked (contention tests); oneTBB caps at the
-        // core count otherwise.
-        tbb::global_control allow(tbb::global_control::max_allowed_parallelism, T);
         Lock locks(m.vertex_slots());
         m.set_slot_recycling(false);
         std::vector<std::unique_ptr<worker_state>> workers;
@@ -305,17 +323,14 @@ private:
                 all.push_back({0.0, t, Op::id, 0});
             });
             initial_count = all.size();
-            tbb::task_arena arena(static_cast<int>(T));
-            arena.execute([&] {
-                tbb::parallel_for(0u, P, [&](unsigned w) {
-                    auto& q = workers[w]->q;
-                    q.reserve(all.size() / P * 2 + 64);
-                    for (entry e : all) {
-                        if (part[e.tuple.vid] != w) continue;
-                        ops::dispatch(e.kind, [&](auto op) { e.priority = priority_of<decltype(op)>(spec, m, e.tuple); });
-                        q.push(e);
-                    }
-                });
+            detail::run_workers(T, P, [&](unsigned w) {
+                auto& q = workers[w]->q;
+                q.reserve(all.size() / P * 2 + 64);
+                for (entry e : all) {
+                    if (part[e.tuple.vid] != w) continue;
+                    ops::dispatch(e.kind, [&](auto op) { e.priority = priority_of<decltype(op)>(spec, m, e.tuple); });
+                    q.push(e);
+                }
             });
         }
 
@@ -422,12 +437,7 @@ private:
             }
         };
 
-        {
-            tbb::task_arena arena(static_cast<int>(T));
-            arena.execute([&] {
-                tbb::parallel_for(0u, P, [&](unsigned w) { drain(w); }, tbb::simple_partitioner{});
-            });
-        }
+        detail::run_workers(T, P, drain);
 
         run_report report;
         report.threads = T;

@@ -183,6 +183,8 @@ bool closed_vertex_link(const Mesh& m, index_t v, link_buffers& l) {
         if (j - i == 1) {
             const auto [x, y] = l.edges[i];
             l.tris.push_back({x, y, tet_link_omega});
+            // The cone triangle xyω: its edges xy (now in two triangles), xω and yω.
+            l.edges.push_back({x, y});
             l.edges.push_back({x, tet_link_omega}), l.edges.push_back({y, tet_link_omega});
         }
         i = j;
@@ -341,9 +343,11 @@ std::optional<op_result<tet_tuple>> collapse_edge(tet_mesh<B>& m, const tet_tupl
     if (!m.is_valid(t)) return std::nullopt;
     const auto [a, b] = m.edge_vertices(t);
     if (!detail::allows_boundary_change(spec) && m.is_boundary_vertex(b)) return std::nullopt;
-    bool a_keeps_a_tet = false;
-    for (index_t g : m.vertex_tets(a)) a_keeps_a_tet |= !tet_local::contains(m.tet_vertices(g), b);
-    if (!a_keeps_a_tet || !link_condition_3d_holds(m, a, b)) return std::nullopt;
+    // Something must survive: a tet of a or b that does not hold the edge.
+    bool survivor = false;
+    for (index_t g : m.vertex_tets(a)) survivor |= !tet_local::contains(m.tet_vertices(g), b);
+    for (index_t g : m.vertex_tets(b)) survivor |= !tet_local::contains(m.tet_vertices(g), a);
+    if (!survivor || !link_condition_3d_holds(m, a, b)) return std::nullopt;
     return detail::run_tri_operation<op::collapse_edge>(m, t, spec, ctx, [&] {
         auto& tets_b = ctx.scratch;
         tets_b.assign(m.vertex_tets(b).begin(), m.vertex_tets(b).end());
