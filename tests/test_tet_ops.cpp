@@ -4,6 +4,7 @@
 #include "tet_support.hpp"
 
 #include <algorithm>
+#include <cstdlib>
 #include <functional>
 #include <limits>
 #include <map>
@@ -431,15 +432,22 @@ tet_sequence_stats run_tet_sequence(tet_mesh<> m, unsigned seed, int n, int full
     spec.rng = &rng;
     tet_sequence_stats st;
     for (int i = 0; i < n; ++i) {
-        index_t t = rng() % m.tet_slots();
-        while (!m.tet_alive(t)) t = rng() % m.tet_slots();
-        auto u = m.tuple_from_edge(t, std::uint8_t(rng() % 6));
-        if (rng() % 2) u = m.switch_vertex(u);
-        if (rng() % 2) u = m.switch_face(u);
+        const int kind = int(rng() % 7);
+        // The fixed-valence swaps look a little for an edge they apply to.
+        const std::size_t want = kind == 4 ? 3 : (kind == 5 ? 4 : 0);
+        tet_tuple u;
+        for (int attempt = 0; attempt < (want ? 30 : 1); ++attempt) {
+            index_t t = rng() % m.tet_slots();
+            while (!m.tet_alive(t)) t = rng() % m.tet_slots();
+            u = m.tuple_from_edge(t, std::uint8_t(rng() % 6));
+            if (rng() % 2) u = m.switch_vertex(u);
+            if (rng() % 2) u = m.switch_face(u);
+            std::vector<index_t> around;
+            if (want) m.edge_tets(u, around);
+            if (around.size() == want) break;
+        }
         std::optional<tet_mesh<>> copy;
         if (compare_rollback) copy = m;
-        // Splits a little rarer than the operations that remove tets, so the size stays bounded.
-        const int kind = int(rng() % 7);
         std::optional<op_result<tet_tuple>> r;
         switch (kind) {
         case 0: r = split_edge(m, u, spec); break;
@@ -475,7 +483,8 @@ tet_sequence_stats run_tet_sequence(tet_mesh<> m, unsigned seed, int n, int full
 
 void check_every_kind(const tet_sequence_stats& st, bool expect_all) {
     for (int k = 0; k < 7; ++k) {
-        INFO(op_name(k) << ": " << st.accepted[k] << " accepted, " << st.refused[k] << " refused");
+        INFO(std::string(op_name(k)) << ": " << st.accepted[k] << " accepted, " << st.refused[k] << " refused");
+        if (std::getenv("IDAS_TET_STATS")) MESSAGE(std::string(op_name(k)) << ": " << st.accepted[k] << " accepted, " << st.refused[k] << " refused");
         if (expect_all) CHECK(st.accepted[k] > 0);
     }
 }

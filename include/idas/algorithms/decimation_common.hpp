@@ -12,13 +12,15 @@ namespace idas::algorithms {
 /// the rim edges (x, y) opposite a. Each is pushed once.
 template <class Op, class Mesh, class Push>
 void push_star_edges(const Mesh& m, const op_result<typename Mesh::tuple>& r, Push& push) {
+    const bool open_fan = m.is_boundary_vertex(r.anchor.vid);
     for (const auto& spoke : r.cells) {
         push(Op{}, spoke); // (a, next)
-        const auto rim = m.switch_edge(m.switch_vertex(spoke));
-        push(Op{}, rim);
-        // On the boundary the fan's last spoke (prev, a) belongs to no other cell.
-        const auto prev = m.switch_edge(spoke);
-        if (m.is_boundary_edge(prev)) push(Op{}, prev);
+        push(Op{}, m.switch_edge(m.switch_vertex(spoke))); // the rim edge opposite a
+        // In an open fan one spoke (prev, a) is on the boundary and in no other cell.
+        if (open_fan) {
+            const auto prev = m.switch_edge(spoke);
+            if (m.is_boundary_edge(prev)) push(Op{}, prev);
+        }
     }
 }
 

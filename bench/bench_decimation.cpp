@@ -1,0 +1,498 @@
+// bench_decimation: one decimation run per process, for the side-by-side benchmark of
+// bench/run_decimation.sh. Not a Google Benchmark program: each run lasts seconds, and
+// peak memory is only meaningful for a process that does one thing.
+//
+//   bench_decimation --peer P --input x4|x16 --ratio R [--threads T] [--samples N]
+//
+// Peers (shortest edge collapse, then quadric decimation):
+//   idas-sec        idas::algorithms::shortest_edge_collapse<true> (link condition, no normal flip)
+//   cgal-sec        CGAL Surface_mesh_simplification: Edge_length_cost + Midpoint_placement,
+//                   filtered by Bounded_normal_change_filter
+//   idas-qslim      idas::algorithms::qslim (area-weighted plane quadrics, no normal flip)
+//   cgal-gh         CGAL GarlandHeckbert_plane_policies (classic Garland-Heckbert plane
+//                   quadrics, optimal placement), filtered by Bounded_normal_change_filter
+//   openmesh-quadric OpenMesh DecimaterT with ModQuadricT (priority) and ModNormalFlippingT
+//                   (binary, 90 degrees: refuses normal flips); halfedge collapses, so the
+//                   merged vertex stays at an endpoint
+//
+// The input is data/armadillo.obj (86,482 faces, closed, genus 0) refined at run time by
+// 1-to-4 midpoint subdivision: x4 = one level (345,928 faces), x16 = two (1,383,712).
+// The target is round(ratio * input faces) faces.
+//
+// Measured, and printed as one JSON object on one line:
+//   seconds_algorithm  wall time of the decimation call(s) only; see `timed` in each peer.
+//                      Reading, subdivision, building the peer's mesh from the face list,
+//                      and extracting or compacting the result are excluded for every peer.
+//   output_faces       faces of the result; face_error = (output - target) / target
+//   hausdorff_*        approximate Hausdorff distances, divided by the input's bounding-box
+//                      diagonal, by CGAL::Polygon_mesh_processing::approximate_Hausdorff_distance
+//                      on CGAL Surface_mesh copies of input and output, for every peer alike:
+//                      random uniform samples on faces at one fixed density (`--samples` per
+//                      armadillo surface area; the subdivided inputs have the same area) plus
+//                      every vertex, fixed seed. out_in samples the output and measures to the
+//                      input (how far the result strays); symmetric is the max of both ways.
+//   peak_rss_delta_mb  getrusage(RUSAGE_SELF) peak RSS at the end of the decimation minus the
+//                      RSS once the input arrays are loaded: the peer's mesh plus its working
+//                      memory. The kernel's high-water mark is reset after loading (writing 5
+//                      to /proc/self/clear_refs) so the subdivision's temporary hash map does
+//                      not hide it; `peak_reset` says whether that worked.
+//   manifold, euler    topology of the output face list (the input has Euler characteristic 2).
+#include <idas/algorithms/qslim.hpp>
+#include <idas/algorithms/shortest_edge_collapse.hpp>
+#include <idas/io/io.hpp>
+#include <idas/mesh/topology_report.hpp>
+#include <idas/mesh/tri_mesh.hpp>
+
+#include <CGAL/Polygon_mesh_processing/distance.h>
+#include <CGAL/Simple_cartesian.h>
+#include <CGAL/Surface_mesh.h>
+#include <CGAL/Surface_mesh_simplification/Edge_collapse_visitor_base.h>
+#include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/Bounded_normal_change_filter.h>
+#include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/Edge_length_cost.h>
+#include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/GarlandHeckbert_plane_policies.h>
+#include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/Midpoint_placement.h>
+#include <CGAL/Surface_mesh_simplification/edge_collapse.h>
+
+#include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
+#include <OpenMesh/Tools/Decimater/DecimaterT.hh>
+#include <OpenMesh/Tools/Decimater/ModNormalFlippingT.hh>
+#include <OpenMesh/Tools/Decimater/ModQuadricT.hh>
+
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <exception>
+#include <fstream>
+#include <limits>
+#include <string>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+#include <malloc.h>
+#include <sys/resource.h>
+#include <unistd.h>
+
+#ifndef IDAS_DATA_DIR
+#define IDAS_DATA_DIR "data"
+#endif
+
+namespace {
+
+using idas::index_t;
+using idas::tri_indices;
+using idas::vec3;
+using surface = idas::io::surface;
+
+class stopwatch {
+public:
+    double seconds() const {
+        return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+    }
+
+private:
+    std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
+};
+
+// ---- input -----------------------------------------------------------------------------
+
+/// One level of 1-to-4 midpoint subdivision: each edge gets its exact midpoint (shared by
+/// the edge's two faces through a hash map) and each triangle becomes four, same
+/// orientation. Geometry is unchanged: the new faces lie in the old ones.
+surface subdivide(const surface& s) {
+    surface out;
+    out.vertices = s.vertices;
+    out.vertices.reserve(s.vertices.size() + 3 * s.faces.size() / 2 + 16);
+    out.faces.reserve(4 * s.faces.size());
+    std::unordered_map<std::uint64_t, index_t> midpoint;
+    midpoint.reserve(3 * s.faces.size() / 2 + 16);
+    auto mid = [&](index_t a, index_t b) {
+        const std::uint64_t key = std::uint64_t{std::min(a, b)} << 32 | std::max(a, b);
+        const auto [it, fresh] = midpoint.try_emplace(key, static_cast<index_t>(out.vertices.size()));
+        if (fresh) out.vertices.push_back((s.vertices[a] + s.vertices[b]) * 0.5);
+        return it->second;
+    };
+    for (const tri_indices& f : s.faces) {
+        const index_t a = f[0], b = f[1], c = f[2];
+        const index_t ab = mid(a, b), bc = mid(b, c), ca = mid(c, a);
+        out.faces.push_back({a, ab, ca});
+        out.faces.push_back({ab, b, bc});
+        out.faces.push_back({ca, bc, c});
+        out.faces.push_back({ab, bc, ca});
+    }
+    return out;
+}
+
+double surface_area(const surface& s) {
+    double area = 0;
+    for (const tri_indices& f : s.faces) {
+        const vec3 &p = s.vertices[f[0]], &q = s.vertices[f[1]], &r = s.vertices[f[2]];
+        area += 0.5 * idas::norm(idas::cross(q - p, r - p));
+    }
+    return area;
+}
+
+double bbox_diagonal(const surface& s) {
+    constexpr double inf = std::numeric_limits<double>::infinity();
+    vec3 lo{inf, inf, inf}, hi{-inf, -inf, -inf};
+    for (const vec3& p : s.vertices)
+        for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], p[k]), hi[k] = std::max(hi[k], p[k]);
+    return idas::norm(hi - lo);
+}
+
+// ---- memory ------------------------------------------------------------------------------
+
+double current_rss_mb() {
+    long pages = 0, resident = 0;
+    if (std::FILE* f = std::fopen("/proc/self/statm", "r")) {
+        if (std::fscanf(f, "%ld %ld", &pages, &resident) != 2) resident = 0;
+        std::fclose(f);
+    }
+    return double(resident) * double(sysconf(_SC_PAGESIZE)) / (1024.0 * 1024.0);
+}
+
+double peak_rss_mb() {
+    rusage u{};
+    getrusage(RUSAGE_SELF, &u);
+    return double(u.ru_maxrss) / 1024.0; // kilobytes on Linux
+}
+
+/// Resets the kernel's peak-RSS mark to the current RSS (Linux >= 4.0); true if it did.
+bool reset_peak_rss() {
+    {
+        std::ofstream clear("/proc/self/clear_refs");
+        if (!clear) return false;
+        clear << "5";
+        if (!clear.flush()) return false;
+    }
+    return peak_rss_mb() <= current_rss_mb() + 1.0;
+}
+
+// ---- peers -------------------------------------------------------------------------------
+
+struct run_result {
+    double seconds = 0;
+    surface output;
+    std::string extra; // peer-specific JSON members, each starting with a comma
+};
+
+/// Times `fn()` on a steady clock.
+template <class Fn>
+double timed(Fn&& fn) {
+    const stopwatch clock;
+    fn();
+    return clock.seconds();
+}
+
+using idas_mesh = idas::tri_mesh<>;
+
+template <class Algorithm, class Spec>
+run_result run_idas(const surface& in, std::int64_t target, unsigned threads) {
+    idas_mesh m(in.vertices, in.faces);
+    Spec spec;
+    spec.target_faces = target;
+    idas::run_report r;
+    run_result out;
+    // Includes the spec's one-off set-up (QSlim's quadrics) and filling the queue.
+    out.seconds = timed([&] { r = Algorithm::run(m, spec, {.threads = threads}); });
+    std::tie(out.output.vertices, out.output.faces) = m.to_arrays();
+    char buf[512];
+    std::snprintf(buf, sizeof buf,
+                  ",\"collapses\":%llu,\"refused\":%llu,\"stale\":%llu,\"pushed\":%llu,"
+                  "\"lock_failures\":%llu,\"deferred_to_serial\":%llu,\"stolen\":%llu",
+                  (unsigned long long)r.succeeded, (unsigned long long)r.refused,
+                  (unsigned long long)r.stale, (unsigned long long)r.pushed,
+                  (unsigned long long)r.lock_failures, (unsigned long long)r.deferred_to_serial,
+                  (unsigned long long)r.stolen);
+    out.extra = buf;
+    return out;
+}
+
+using kernel = CGAL::Simple_cartesian<double>;
+using cgal_mesh = CGAL::Surface_mesh<kernel::Point_3>;
+namespace SMS = CGAL::Surface_mesh_simplification;
+
+cgal_mesh to_cgal(const surface& s) {
+    cgal_mesh m;
+    m.reserve(static_cast<cgal_mesh::size_type>(s.vertices.size()),
+              static_cast<cgal_mesh::size_type>(3 * s.faces.size() / 2),
+              static_cast<cgal_mesh::size_type>(s.faces.size()));
+    std::vector<cgal_mesh::Vertex_index> v;
+    v.reserve(s.vertices.size());
+    for (const vec3& p : s.vertices) v.push_back(m.add_vertex(kernel::Point_3(p.x, p.y, p.z)));
+    for (const tri_indices& f : s.faces)
+        if (m.add_face(v[f[0]], v[f[1]], v[f[2]]) == cgal_mesh::null_face())
+            throw std::runtime_error("CGAL refused a face of the input");
+    return m;
+}
+
+surface from_cgal(const cgal_mesh& m) {
+    surface s;
+    std::vector<index_t> id(m.num_vertices() + m.number_of_removed_vertices(), 0);
+    for (auto v : m.vertices()) {
+        id[v.idx()] = static_cast<index_t>(s.vertices.size());
+        const auto& p = m.point(v);
+        s.vertices.push_back({p.x(), p.y(), p.z()});
+    }
+    for (auto f : m.faces()) {
+        tri_indices t{};
+        int k = 0;
+        for (auto v : CGAL::vertices_around_face(m.halfedge(f), m)) t[k++] = id[v.idx()];
+        s.faces.push_back(t);
+    }
+    return s;
+}
+
+/// Live face count for CGAL's stop predicate, kept exact by the collapse visitor (CGAL
+/// itself counts edges).
+struct face_count_visitor : SMS::Edge_collapse_visitor_base<cgal_mesh> {
+    std::int64_t* faces = nullptr;
+    std::uint64_t* collapses = nullptr;
+    void OnCollapsing(const Profile& p, const boost::optional<Point>&) {
+        *faces -= (p.left_face_exists() ? 1 : 0) + (p.right_face_exists() ? 1 : 0);
+        ++*collapses;
+    }
+};
+
+struct face_count_stop {
+    const std::int64_t* faces = nullptr;
+    std::int64_t target = 0;
+    template <class FT, class Profile>
+    bool operator()(const FT&, const Profile&, std::size_t, std::size_t) const {
+        return *faces <= target;
+    }
+};
+
+template <class Params>
+run_result run_cgal_with(cgal_mesh& m, std::int64_t target, Params&& make_params) {
+    std::int64_t faces = static_cast<std::int64_t>(m.number_of_faces());
+    std::uint64_t collapses = 0;
+    face_count_visitor visitor;
+    visitor.faces = &faces, visitor.collapses = &collapses;
+    const face_count_stop stop{&faces, target};
+    run_result out;
+    out.seconds = timed([&] { SMS::edge_collapse(m, stop, make_params(visitor)); });
+    out.output = from_cgal(m);
+    out.extra = ",\"collapses\":" + std::to_string(collapses);
+    return out;
+}
+
+run_result run_cgal_sec(const surface& in, std::int64_t target) {
+    cgal_mesh m = to_cgal(in);
+    const SMS::Edge_length_cost<cgal_mesh> cost;
+    const SMS::Midpoint_placement<cgal_mesh> placement;
+    const SMS::Bounded_normal_change_filter<> filter;
+    return run_cgal_with(m, target, [&](const face_count_visitor& v) {
+        return CGAL::parameters::get_cost(cost).get_placement(placement).filter(filter).visitor(v);
+    });
+}
+
+run_result run_cgal_gh(const surface& in, std::int64_t target) {
+    cgal_mesh m = to_cgal(in);
+    std::int64_t faces = static_cast<std::int64_t>(m.number_of_faces());
+    std::uint64_t collapses = 0;
+    face_count_visitor visitor;
+    visitor.faces = &faces, visitor.collapses = &collapses;
+    const face_count_stop stop{&faces, target};
+    const SMS::Bounded_normal_change_filter<> filter;
+    run_result out;
+    // Includes creating the policies' per-vertex quadric map; CGAL fills it inside
+    // edge_collapse.
+    out.seconds = timed([&] {
+        SMS::GarlandHeckbert_plane_policies<cgal_mesh, kernel> gh(m);
+        SMS::edge_collapse(m, stop,
+                           CGAL::parameters::get_cost(gh.get_cost())
+                               .get_placement(gh.get_placement())
+                               .filter(filter)
+                               .visitor(visitor));
+    });
+    out.output = from_cgal(m);
+    out.extra = ",\"collapses\":" + std::to_string(collapses);
+    return out;
+}
+
+struct om_traits : OpenMesh::DefaultTraits {
+    using Point = OpenMesh::Vec3d;
+    using Normal = OpenMesh::Vec3d;
+};
+using om_mesh = OpenMesh::TriMesh_ArrayKernelT<om_traits>;
+
+run_result run_openmesh(const surface& in, std::int64_t target) {
+    om_mesh m;
+    m.reserve(in.vertices.size(), 3 * in.faces.size() / 2, in.faces.size());
+    std::vector<om_mesh::VertexHandle> v;
+    v.reserve(in.vertices.size());
+    for (const vec3& p : in.vertices) v.push_back(m.add_vertex(om_mesh::Point(p.x, p.y, p.z)));
+    for (const tri_indices& f : in.faces)
+        if (!m.add_face(v[f[0]], v[f[1]], v[f[2]]).is_valid())
+            throw std::runtime_error("OpenMesh refused a face of the input");
+    run_result out;
+    std::size_t collapses = 0;
+    // Includes the status and face-normal properties the decimater and the flip check
+    // need, module set-up and the quadrics (initialize).
+    out.seconds = timed([&] {
+        // Requested here as well as by the decimater, so that they outlive it: the
+        // decimater releases its requests, and garbage collection needs the status.
+        m.request_vertex_status();
+        m.request_edge_status();
+        m.request_face_status();
+        m.request_face_normals();
+        m.update_face_normals();
+        OpenMesh::Decimater::DecimaterT<om_mesh> decimater(m);
+        OpenMesh::Decimater::ModQuadricT<om_mesh>::Handle quadric;
+        OpenMesh::Decimater::ModNormalFlippingT<om_mesh>::Handle flip;
+        decimater.add(quadric);
+        decimater.add(flip);
+        decimater.initialize();
+        collapses = decimater.decimate_to_faces(0, static_cast<std::size_t>(target));
+    });
+    m.garbage_collection();
+    out.output.vertices.reserve(m.n_vertices());
+    for (auto vh : m.vertices()) {
+        const auto& p = m.point(vh);
+        out.output.vertices.push_back({p[0], p[1], p[2]});
+    }
+    for (auto fh : m.faces()) {
+        tri_indices t{};
+        int k = 0;
+        for (auto vh : m.fv_range(fh)) t[k++] = static_cast<index_t>(vh.idx());
+        out.output.faces.push_back(t);
+    }
+    out.extra = ",\"collapses\":" + std::to_string(collapses);
+    return out;
+}
+
+// ---- driver ------------------------------------------------------------------------------
+
+struct options {
+    std::string peer, input = "x4", data = std::string(IDAS_DATA_DIR) + "/armadillo.obj";
+    double ratio = 0.1;
+    unsigned threads = 1;
+    double samples = 1e6; // face samples per armadillo surface area
+};
+
+[[noreturn]] void usage(const std::string& message) {
+    std::fprintf(stderr,
+                 "bench_decimation: %s\n"
+                 "usage: bench_decimation --peer idas-sec|cgal-sec|idas-qslim|cgal-gh|"
+                 "openmesh-quadric\n"
+                 "         [--input x1|x4|x16] [--ratio R] [--threads T] [--samples N]"
+                 " [--data FILE.obj]\n",
+                 message.c_str());
+    std::exit(2);
+}
+
+options parse(int argc, char** argv) {
+    options o;
+    for (int i = 1; i < argc; ++i) {
+        const std::string a = argv[i];
+        if (i + 1 >= argc) usage("missing value after " + a);
+        const std::string v = argv[++i];
+        if (a == "--peer") o.peer = v;
+        else if (a == "--input") o.input = v;
+        else if (a == "--ratio") o.ratio = std::stod(v);
+        else if (a == "--threads") o.threads = static_cast<unsigned>(std::stoul(v));
+        else if (a == "--samples") o.samples = std::stod(v);
+        else if (a == "--data") o.data = v;
+        else usage("unknown option " + a);
+    }
+    if (o.peer.empty()) usage("--peer is required");
+    if (!(o.ratio > 0 && o.ratio <= 1)) usage("--ratio must be in (0, 1]");
+    if (o.threads == 0) usage("--threads must be at least 1");
+    if (o.input != "x1" && o.input != "x4" && o.input != "x16")
+        usage("--input must be x1, x4 or x16");
+    if (o.threads != 1 && o.peer.rfind("idas", 0) != 0) usage("only idas peers take --threads");
+    return o;
+}
+
+/// One-sided approximate Hausdorff distance from `a` to `b` (samples on `a`).
+double hausdorff(const cgal_mesh& a, const cgal_mesh& b, double per_area) {
+    namespace P = CGAL::parameters;
+    return CGAL::Polygon_mesh_processing::approximate_Hausdorff_distance<CGAL::Parallel_if_available_tag>(
+        a, b,
+        P::number_of_points_per_area_unit(per_area)
+            .do_sample_vertices(true)
+            .do_sample_edges(false)
+            .random_seed(20240601));
+}
+
+int run(const options& o) {
+    surface in = idas::io::read_surface(o.data);
+    const double area = surface_area(in);
+    const int levels = o.input == "x1" ? 0 : (o.input == "x4" ? 1 : 2);
+    for (int l = 0; l < levels; ++l) in = subdivide(in);
+    const double diagonal = bbox_diagonal(in);
+    const auto input_faces = static_cast<std::int64_t>(in.faces.size());
+    const auto target = static_cast<std::int64_t>(std::llround(o.ratio * double(input_faces)));
+
+    malloc_trim(0);
+    const bool peak_reset = reset_peak_rss();
+    const double rss_loaded = current_rss_mb();
+
+    run_result r;
+    std::string algorithm;
+    if (o.peer == "idas-sec") {
+        using namespace idas::algorithms;
+        r = run_idas<shortest_edge_collapse<true, idas_mesh>, shortest_edge_collapse_spec<true>>(
+            in, target, o.threads);
+        algorithm = "shortest-edge";
+    } else if (o.peer == "idas-qslim") {
+        using namespace idas::algorithms;
+        r = run_idas<qslim<idas_mesh>, qslim_spec>(in, target, o.threads);
+        algorithm = "qslim";
+    } else if (o.peer == "cgal-sec") {
+        r = run_cgal_sec(in, target);
+        algorithm = "shortest-edge";
+    } else if (o.peer == "cgal-gh") {
+        r = run_cgal_gh(in, target);
+        algorithm = "qslim";
+    } else if (o.peer == "openmesh-quadric") {
+        r = run_openmesh(in, target);
+        algorithm = "qslim";
+    } else {
+        usage("unknown peer " + o.peer);
+    }
+    const double peak = peak_rss_mb();
+
+    const idas::topology_report topo = idas::diagnose_topology(r.output.vertices.size(), r.output.faces);
+    const auto output_faces = static_cast<std::int64_t>(r.output.faces.size());
+
+    double h_out_in = -1, h_in_out = -1, h_seconds = 0;
+    if (o.samples > 0 && output_faces > 0) {
+        const stopwatch clock;
+        const cgal_mesh a = to_cgal(in), b = to_cgal(r.output);
+        const double per_area = o.samples / area;
+        h_out_in = hausdorff(b, a, per_area) / diagonal;
+        h_in_out = hausdorff(a, b, per_area) / diagonal;
+        h_seconds = clock.seconds();
+    }
+
+    std::printf("{\"peer\":\"%s\",\"algorithm\":\"%s\",\"input\":\"%s\",\"input_faces\":%lld,"
+                "\"ratio\":%g,\"target_faces\":%lld,\"threads\":%u,\"seconds_algorithm\":%.6f,"
+                "\"output_faces\":%lld,\"output_vertices\":%zu,\"face_error\":%.6g,"
+                "\"hausdorff_out_in\":%.6g,\"hausdorff_symmetric\":%.6g,\"hausdorff_samples_per_area\":%g,"
+                "\"seconds_hausdorff\":%.3f,\"rss_loaded_mb\":%.1f,\"peak_rss_mb\":%.1f,"
+                "\"peak_rss_delta_mb\":%.1f,\"peak_reset\":%s,\"manifold\":%s,\"euler\":%ld%s}\n",
+                o.peer.c_str(), algorithm.c_str(), o.input.c_str(), (long long)input_faces, o.ratio,
+                (long long)target, o.threads, r.seconds, (long long)output_faces,
+                r.output.vertices.size(), double(output_faces - target) / double(target), h_out_in,
+                std::max(h_out_in, h_in_out), o.samples, h_seconds, rss_loaded, peak,
+                peak - rss_loaded, peak_reset ? "true" : "false",
+                topo.editable() ? "true" : "false", static_cast<long>(topo.euler_characteristic),
+                r.extra.c_str());
+    return 0;
+}
+
+} // namespace
+
+int main(int argc, char** argv) {
+    try {
+        return run(parse(argc, argv));
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "bench_decimation: error: %s\n", e.what());
+        return 1;
+    }
+}

@@ -1,0 +1,663 @@
+// Gmsh MSH files, versions 2.2 and 4.1, ASCII and binary: tetrahedra are read, every
+// other element type is skipped (and counted). Node tags may be any non-negative
+// integers in any order; they are mapped to 0-based indices in file order.
+//
+// Like the surface readers, every problem with a file is an input_error that starts with
+// the path ("<path>: line N: ..." for ASCII, "<path>: byte N: ..." for binary). Counts
+// in headers are checked against the bytes that are actually there before anything is
+// reserved or looped over, so lying headers and truncated files fail fast.
+#pragma once
+
+#include "idas/io/atomic_file.hpp"
+#include "idas/io/surface.hpp"
+#include "idas/io/volume.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <ostream>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+namespace idas::io {
+
+enum class msh_version { v2_2, v4_1 };
+
+namespace detail {
+
+/// Nodes per element of Gmsh's element types; 0 for types this table does not know.
+inline int msh_nodes_per_element(std::int64_t type) noexcept {
+    static constexpr int table[] = {0,  2,  3,  4,  4, 8,  6,  5,  3,  6,  9,  10, 27, 18, 14, 1,
+                                    8,  20, 15, 13, 9, 10, 12, 15, 15, 21, 4,  5,  6,  20, 35, 56};
+    if (type >= 1 && type <= 31) return table[type];
+    if (type == 92) return 64;
+    if (type == 93) return 125;
+    return 0;
+}
+inline constexpr std::int64_t msh_tet4 = 4;
+
+template <class T>
+T byte_swapped(T v) noexcept {
+    unsigned char b[sizeof(T)];
+    std::memcpy(b, &v, sizeof(T));
+    std::reverse(b, b + sizeof(T));
+    std::memcpy(&v, b, sizeof(T));
+    return v;
+}
+
+class msh_parser {
+public:
+    msh_parser(std::string_view data, std::string_view source)
+        : data_(data)
+        , source_(source) {}
+
+    volume run() {
+        if (data_.starts_with("\xEF\xBB\xBF")) pos_ = 3;
+        if (is_blank(data_.substr(pos_))) fail(source_, "file is empty");
+        if (token() != "$MeshFormat")
+            fail(source_, "not a Gmsh MSH file: it does not start with $MeshFormat");
+        parse_format();
+        for (;;) {
+            const std::string_view t = token();
+            if (t.empty()) break;
+            if (t.size() < 2 || t[0] != '$' || t.starts_with("$End"))
+                fail_here("expected a section such as $Nodes or $Elements, found " + quoted(t));
+            const std::string_view name = t.substr(1);
+            if (name == "MeshFormat") fail_here("a second $MeshFormat section");
+            if (name == "Nodes") {
+                if (have_nodes_) fail_here("a second $Nodes section");
+                have_nodes_ = true;
+                v41_ ? nodes_41() : nodes_22();
+                expect_end("Nodes");
+            } else if (name == "Elements") {
+                if (have_elements_) fail_here("a second $Elements section");
+                have_elements_ = true;
+                v41_ ? elements_41() : elements_22();
+                expect_end("Elements");
+            } else {
+                skip_section(name);
+            }
+        }
+        if (!have_nodes_) fail(source_, "no $Nodes section");
+        if (!have_elements_) fail(source_, "no $Elements section");
+        return resolve();
+    }
+
+private:
+    // ---- errors ----
+    [[noreturn]] void fail_here(const std::string& what) const {
+        if (binary_) fail(source_, "byte " + std::to_string(pos_) + ": " + what);
+        const auto line = 1 + std::count(data_.begin(), data_.begin() + static_cast<std::ptrdiff_t>(pos_), '\n');
+        fail_at_line(source_, static_cast<std::size_t>(line), what);
+    }
+    [[noreturn]] void truncated(const std::string& where) const {
+        fail(source_, "truncated: the file ends " + where);
+    }
+
+    // ---- text ----
+    void skip_space() noexcept {
+        while (pos_ < data_.size() && is_space(data_[pos_])) ++pos_;
+    }
+    std::string_view token() noexcept {
+        skip_space();
+        const std::size_t start = pos_;
+        while (pos_ < data_.size() && !is_space(data_[pos_])) ++pos_;
+        return data_.substr(start, pos_ - start);
+    }
+    /// The rest of the current line; moves past its end.
+    std::string_view rest_of_line() noexcept {
+        const std::size_t start = pos_;
+        while (pos_ < data_.size() && data_[pos_] != '\n') ++pos_;
+        std::string_view l = data_.substr(start, pos_ - start);
+        if (pos_ < data_.size()) ++pos_;
+        if (!l.empty() && l.back() == '\r') l.remove_suffix(1);
+        return l;
+    }
+    std::int64_t integer(const char* what) {
+        const std::string_view t = token();
+        if (t.empty()) truncated(std::string("where ") + what + " was expected");
+        std::int64_t v = 0;
+        if (!parse_int(t, v)) fail_here(std::string(what) + " " + quoted(t) + " is not an integer");
+        return v;
+    }
+    std::uint64_t count(const char* what) {
+        const std::int64_t v = integer(what);
+        if (v < 0) fail_here(std::string(what) + " is negative (" + std::to_string(v) + ")");
+        return static_cast<std::uint64_t>(v);
+    }
+    double real(const char* what) {
+        const std::string_view t = token();
+        if (t.empty()) truncated(std::string("where ") + what + " was expected");
+        double v = 0;
+        switch (parse_double(t, v)) {
+        case parse_status::ok: return v;
+        case parse_status::out_of_range: fail_here(std::string(what) + " " + quoted(t) + " is out of range");
+        case parse_status::not_a_number: break;
+        }
+        fail_here(std::string(what) + " " + quoted(t) + " is not a number");
+    }
+    void expect_end(std::string_view name) {
+        const std::string_view t = token();
+        const std::string want = "$End" + std::string(name);
+        if (t.empty()) truncated("before " + want);
+        if (t != want) fail_here("expected " + want + ", found " + quoted(t));
+    }
+    void skip_section(std::string_view name) {
+        const std::string want = "$End" + std::string(name);
+        const std::size_t at = data_.find(want, pos_);
+        if (at == std::string_view::npos) truncated("inside section $" + std::string(name) + " (no " + want + ")");
+        pos_ = at + want.size();
+    }
+    /// Tokens of one element line (ASCII files keep one element per line).
+    template <class Out>
+    void line_tokens(Out& out, std::uint64_t done, std::uint64_t total) {
+        skip_space();
+        if (pos_ >= data_.size())
+            truncated("after " + std::to_string(done) + " of " + std::to_string(total) + " elements");
+        if (data_[pos_] == '$')
+            fail_here("the $Elements header announces " + std::to_string(total) + " elements but only " +
+                      std::to_string(done) + " are listed");
+        out.clear();
+        std::string_view l = rest_of_line();
+        for (std::string_view t = next_token(l); !t.empty(); t = next_token(l)) {
+            std::int64_t v = 0;
+            if (!parse_int(t, v)) {
+                --pos_; // report the element's own line
+                fail_here("element value " + quoted(t) + " is not an integer");
+            }
+            out.push_back(v);
+        }
+    }
+
+    // ---- binary ----
+    template <class T>
+    T bin(const char* what) {
+        if (data_.size() - pos_ < sizeof(T)) truncated(std::string("inside ") + what);
+        T v;
+        std::memcpy(&v, data_.data() + pos_, sizeof(T));
+        pos_ += sizeof(T);
+        return swap_ ? byte_swapped(v) : v;
+    }
+    /// Binary payloads start right after one line break (the payload itself may begin
+    /// with bytes that look like white space).
+    void line_break_before_binary() {
+        while (pos_ < data_.size() && (data_[pos_] == ' ' || data_[pos_] == '\t' || data_[pos_] == '\r')) ++pos_;
+        if (pos_ >= data_.size()) truncated("before binary data");
+        if (data_[pos_] != '\n') fail_here("expected a line break before binary data");
+        ++pos_;
+    }
+    /// Refuses counts the remaining bytes cannot hold, before anything is allocated.
+    void need(std::uint64_t n, std::size_t bytes_each, const char* what) const {
+        const std::size_t left = data_.size() - pos_;
+        if (n > left / bytes_each)
+            fail(source_, "byte " + std::to_string(pos_) + ": truncated or corrupt: the header announces " +
+                              std::to_string(n) + " " + what + " (" + std::to_string(bytes_each) +
+                              " bytes each) but only " + std::to_string(left) + " bytes remain");
+    }
+
+    // ---- sections ----
+    void parse_format() {
+        rest_of_line();
+        const std::string_view version = token();
+        const std::string_view type = token();
+        const std::string_view size = token();
+        if (size.empty()) truncated("inside $MeshFormat");
+        if (version == "2.2" || version == "2.1" || version == "2.0" || version == "2") v41_ = false;
+        else if (version == "4.1") v41_ = true;
+        else if (version == "4" || version == "4.0")
+            fail_here("MSH version 4.0 is not supported (only 2.2 and 4.1); re-save the file as 4.1");
+        else fail_here("MSH version " + quoted(version) + " is not supported (only 2.2 and 4.1)");
+        if (type == "1") binary_ = true;
+        else if (type != "0") fail_here("file type " + quoted(type) + " is neither 0 (ASCII) nor 1 (binary)");
+        if (size != "8") fail_here("data size " + quoted(size) + " is not supported (only 8)");
+        if (binary_) {
+            line_break_before_binary();
+            const auto one = bin<std::int32_t>("$MeshFormat");
+            if (one != 1) {
+                if (byte_swapped(one) != 1)
+                    fail_here("the binary endianness marker is " + std::to_string(one) + ", not 1");
+                swap_ = true;
+            }
+        }
+        expect_end("MeshFormat");
+    }
+
+    void add_node(std::uint64_t tag, const vec3& p) {
+        if (vertices_.size() >= invalid_index - 1) fail(source_, "too many nodes");
+        if (!is_finite(p)) fail_here("node " + std::to_string(tag) + " has a non-finite coordinate");
+        tags_.push_back({tag, static_cast<index_t>(vertices_.size())});
+        vertices_.push_back(p);
+    }
+    void reserve_nodes(std::uint64_t n, std::size_t min_bytes) {
+        const std::size_t cap = capped_reserve(n, data_.size() - pos_, min_bytes);
+        vertices_.reserve(cap), tags_.reserve(cap);
+    }
+
+    void nodes_22() {
+        const std::uint64_t n = count("number of nodes");
+        if (binary_) {
+            line_break_before_binary();
+            need(n, 4 + 24, "nodes");
+            reserve_nodes(n, 28);
+            for (std::uint64_t i = 0; i < n; ++i) {
+                const auto tag = bin<std::int32_t>("$Nodes");
+                if (tag < 0) fail_here("node tag " + std::to_string(tag) + " is negative");
+                vec3 p;
+                for (int k = 0; k < 3; ++k) p[k] = bin<double>("$Nodes");
+                add_node(static_cast<std::uint64_t>(tag), p);
+            }
+            return;
+        }
+        reserve_nodes(n, 8);
+        for (std::uint64_t i = 0; i < n; ++i) {
+            skip_space();
+            if (pos_ < data_.size() && data_[pos_] == '$')
+                fail_here("the $Nodes header announces " + std::to_string(n) + " nodes but only " +
+                          std::to_string(i) + " are listed");
+            const std::uint64_t tag = count("node tag");
+            vec3 p;
+            for (int k = 0; k < 3; ++k) p[k] = real("coordinate");
+            add_node(tag, p);
+        }
+    }
+
+    void nodes_41() {
+        std::uint64_t blocks = 0, total = 0;
+        if (binary_) {
+            line_break_before_binary();
+            blocks = bin<std::uint64_t>("$Nodes"), total = bin<std::uint64_t>("$Nodes");
+            bin<std::uint64_t>("$Nodes"), bin<std::uint64_t>("$Nodes"); // min and max tag
+            need(total, 32, "nodes");
+            need(blocks, 20, "node blocks");
+        } else {
+            blocks = count("number of node blocks"), total = count("number of nodes");
+            count("minimum node tag"), count("maximum node tag");
+        }
+        reserve_nodes(total, binary_ ? 32 : 8);
+        std::uint64_t read = 0;
+        for (std::uint64_t b = 0; b < blocks; ++b) {
+            std::int64_t dim = 0, parametric = 0;
+            std::uint64_t n = 0;
+            if (binary_) {
+                dim = bin<std::int32_t>("a node block"), bin<std::int32_t>("a node block");
+                parametric = bin<std::int32_t>("a node block"), n = bin<std::uint64_t>("a node block");
+            } else {
+                dim = integer("entity dimension"), integer("entity tag");
+                parametric = integer("parametric flag"), n = count("number of nodes in block");
+            }
+            if (dim < 0 || dim > 3) fail_here("node block " + std::to_string(b) + " has dimension " + std::to_string(dim));
+            if (parametric != 0 && parametric != 1)
+                fail_here("node block " + std::to_string(b) + " has parametric flag " + std::to_string(parametric));
+            if (n > total - read)
+                fail_here("the $Nodes header announces " + std::to_string(total) + " nodes but the blocks hold more");
+            const std::size_t values = 3 + static_cast<std::size_t>(parametric ? dim : 0);
+            // Tags first, then coordinates: remember where this block's tags start.
+            const std::size_t first = tags_.size();
+            if (binary_) need(n, 8 + 8 * values, "nodes");
+            for (std::uint64_t i = 0; i < n; ++i) {
+                std::uint64_t tag = binary_ ? bin<std::uint64_t>("node tags") : count("node tag");
+                tags_.push_back({tag, 0});
+            }
+            for (std::uint64_t i = 0; i < n; ++i) {
+                vec3 p;
+                for (std::size_t k = 0; k < values; ++k) {
+                    const double x = binary_ ? bin<double>("node coordinates") : real("coordinate");
+                    if (k < 3) p[static_cast<int>(k)] = x;
+                }
+                const auto tag = tags_[first + i].first;
+                if (vertices_.size() >= invalid_index - 1) fail(source_, "too many nodes");
+                if (!is_finite(p)) fail_here("node " + std::to_string(tag) + " has a non-finite coordinate");
+                tags_[first + i].second = static_cast<index_t>(vertices_.size());
+                vertices_.push_back(p);
+            }
+            read += n;
+        }
+        if (read != total)
+            fail_here("the $Nodes header announces " + std::to_string(total) + " nodes but the blocks hold " +
+                      std::to_string(read));
+    }
+
+    void add_tet(std::uint64_t element, const std::array<std::uint64_t, 4>& nodes) {
+        if (tet_nodes_.size() >= invalid_index - 1) fail(source_, "too many tets");
+        tet_nodes_.push_back(nodes);
+        tet_elements_.push_back(element);
+    }
+
+    void elements_22() {
+        const std::uint64_t m = count("number of elements");
+        if (binary_) {
+            line_break_before_binary();
+            std::uint64_t read = 0;
+            while (read < m) {
+                const auto type = bin<std::int32_t>("an element header");
+                const auto n = bin<std::int32_t>("an element header");
+                const auto ntags = bin<std::int32_t>("an element header");
+                const int nn = msh_nodes_per_element(type);
+                if (nn == 0) fail_here("element type " + std::to_string(type) + " is unknown, so it cannot be skipped");
+                if (n <= 0 || static_cast<std::uint64_t>(n) > m - read)
+                    fail_here("element block of " + std::to_string(n) + " elements does not fit the header's " +
+                              std::to_string(m));
+                if (ntags < 0 || ntags > 1000) fail_here("element block has " + std::to_string(ntags) + " tags");
+                const std::size_t each = 4 * (1 + static_cast<std::size_t>(ntags) + static_cast<std::size_t>(nn));
+                need(static_cast<std::uint64_t>(n), each, "elements");
+                for (std::int32_t i = 0; i < n; ++i) {
+                    const auto number = bin<std::int32_t>("an element");
+                    if (type != msh_tet4) {
+                        pos_ += each - 4;
+                        ++skipped_;
+                        continue;
+                    }
+                    pos_ += 4 * static_cast<std::size_t>(ntags);
+                    std::array<std::uint64_t, 4> nodes{};
+                    for (auto& v : nodes) {
+                        const auto tag = bin<std::int32_t>("an element");
+                        if (tag < 0) fail_here("element " + std::to_string(number) + " has negative node tag " + std::to_string(tag));
+                        v = static_cast<std::uint64_t>(tag);
+                    }
+                    add_tet(static_cast<std::uint64_t>(number), nodes);
+                }
+                read += static_cast<std::uint64_t>(n);
+            }
+            return;
+        }
+        if (!is_blank(rest_of_line())) fail_here("unexpected text after the number of elements");
+        element_values values;
+        for (std::uint64_t k = 0; k < m; ++k) {
+            line_tokens(values, k, m);
+            if (values.size() < 3) fail_here("element line has " + std::to_string(values.size()) + " values");
+            const std::int64_t number = values[0], type = values[1], ntags = values[2];
+            const int nn = msh_nodes_per_element(type);
+            if (ntags < 0 || (nn && values.size() != 3 + static_cast<std::size_t>(ntags) + static_cast<std::size_t>(nn)) ||
+                (!nn && values.size() < 3 + static_cast<std::size_t>(ntags)))
+                fail_line_of_element(number, "has " + std::to_string(values.size()) + " values, which does not fit type " +
+                                                 std::to_string(type) + " with " + std::to_string(ntags) + " tags");
+            if (type != msh_tet4) {
+                ++skipped_;
+                continue;
+            }
+            add_tet_from(number, values, 3 + static_cast<std::size_t>(ntags));
+        }
+    }
+
+    void elements_41() {
+        std::uint64_t blocks = 0, total = 0;
+        if (binary_) {
+            line_break_before_binary();
+            blocks = bin<std::uint64_t>("$Elements"), total = bin<std::uint64_t>("$Elements");
+            bin<std::uint64_t>("$Elements"), bin<std::uint64_t>("$Elements");
+            need(total, 16, "elements");
+            need(blocks, 20, "element blocks");
+        } else {
+            blocks = count("number of element blocks"), total = count("number of elements");
+            count("minimum element tag"), count("maximum element tag");
+            if (!is_blank(rest_of_line())) fail_here("unexpected text after the $Elements header");
+        }
+        tet_nodes_.reserve(capped_reserve(total, data_.size() - pos_, binary_ ? 40 : 10));
+        std::uint64_t read = 0;
+        element_values values;
+        for (std::uint64_t b = 0; b < blocks; ++b) {
+            std::int64_t type = 0;
+            std::uint64_t n = 0;
+            if (binary_) {
+                bin<std::int32_t>("an element block"), bin<std::int32_t>("an element block");
+                type = bin<std::int32_t>("an element block"), n = bin<std::uint64_t>("an element block");
+            } else {
+                integer("entity dimension"), integer("entity tag");
+                type = integer("element type"), n = count("number of elements in block");
+                if (!is_blank(rest_of_line())) fail_here("unexpected text after an element block header");
+            }
+            if (n > total - read)
+                fail_here("the $Elements header announces " + std::to_string(total) + " elements but the blocks hold more");
+            const int nn = msh_nodes_per_element(type);
+            if (binary_) {
+                if (nn == 0) fail_here("element type " + std::to_string(type) + " is unknown, so it cannot be skipped");
+                const std::size_t each = 8 * (1 + static_cast<std::size_t>(nn));
+                need(n, each, "elements");
+                for (std::uint64_t i = 0; i < n; ++i) {
+                    const auto number = bin<std::uint64_t>("an element");
+                    if (type != msh_tet4) {
+                        pos_ += each - 8;
+                        ++skipped_;
+                        continue;
+                    }
+                    std::array<std::uint64_t, 4> nodes{};
+                    for (auto& v : nodes) v = bin<std::uint64_t>("an element");
+                    add_tet(number, nodes);
+                }
+            } else {
+                for (std::uint64_t i = 0; i < n; ++i) {
+                    line_tokens(values, read + i, total);
+                    if (values.empty() || values[0] < 0 || (nn && values.size() != 1 + static_cast<std::size_t>(nn)))
+                        fail_line_of_element(values.empty() ? -1 : values[0],
+                                             "has " + std::to_string(values.size()) + " values, which does not fit type " +
+                                                 std::to_string(type));
+                    if (type != msh_tet4) {
+                        ++skipped_;
+                        continue;
+                    }
+                    add_tet_from(values[0], values, 1);
+                }
+            }
+            read += n;
+        }
+        if (read != total)
+            fail_here("the $Elements header announces " + std::to_string(total) + " elements but the blocks hold " +
+                      std::to_string(read));
+    }
+
+    // Element values are stored in a reused vector: one line at a time.
+    using element_values = std::vector<std::int64_t>;
+
+    [[noreturn]] void fail_line_of_element(std::int64_t number, const std::string& what) {
+        --pos_; // back onto the element's line for the line number
+        fail_here("element " + std::to_string(number) + " " + what);
+    }
+    void add_tet_from(std::int64_t number, const element_values& values, std::size_t first) {
+        std::array<std::uint64_t, 4> nodes{};
+        for (std::size_t k = 0; k < 4; ++k) {
+            if (values[first + k] < 0)
+                fail_line_of_element(number, "has negative node tag " + std::to_string(values[first + k]));
+            nodes[k] = static_cast<std::uint64_t>(values[first + k]);
+        }
+        add_tet(static_cast<std::uint64_t>(number), nodes);
+    }
+
+    volume resolve() {
+        volume out;
+        out.skipped_elements = skipped_;
+        auto sorted = tags_;
+        std::sort(sorted.begin(), sorted.end());
+        for (std::size_t i = 1; i < sorted.size(); ++i)
+            if (sorted[i].first == sorted[i - 1].first)
+                fail(source_, "node tag " + std::to_string(sorted[i].first) + " is defined twice");
+        // Dense tags (the usual 1..n) get a direct table; sparse ones a binary search.
+        std::vector<index_t> dense;
+        if (!sorted.empty() && sorted.back().first < 2 * sorted.size() + 1024) {
+            dense.assign(static_cast<std::size_t>(sorted.back().first) + 1, invalid_index);
+            for (const auto& [tag, i] : sorted) dense[static_cast<std::size_t>(tag)] = i;
+        }
+        const auto lookup = [&](std::uint64_t tag) -> index_t {
+            if (!dense.empty()) return tag < dense.size() ? dense[static_cast<std::size_t>(tag)] : invalid_index;
+            const auto it = std::lower_bound(sorted.begin(), sorted.end(), std::pair<std::uint64_t, index_t>{tag, 0});
+            return it != sorted.end() && it->first == tag ? it->second : invalid_index;
+        };
+        out.tets.reserve(tet_nodes_.size());
+        for (std::size_t t = 0; t < tet_nodes_.size(); ++t) {
+            tet_indices tv{};
+            for (int k = 0; k < 4; ++k) {
+                tv[k] = lookup(tet_nodes_[t][k]);
+                if (tv[k] == invalid_index)
+                    fail(source_, "element " + std::to_string(tet_elements_[t]) + " references node " +
+                                      std::to_string(tet_nodes_[t][k]) + ", which is not defined");
+                for (int j = 0; j < k; ++j)
+                    if (tv[j] == tv[k])
+                        fail(source_, "element " + std::to_string(tet_elements_[t]) + " is degenerate: it uses node " +
+                                          std::to_string(tet_nodes_[t][k]) + " twice");
+            }
+            out.tets.push_back(tv);
+        }
+        out.vertices = std::move(vertices_);
+        return out;
+    }
+
+    std::string_view data_, source_;
+    std::size_t pos_ = 0;
+    bool binary_ = false, swap_ = false, v41_ = false;
+    bool have_nodes_ = false, have_elements_ = false;
+    std::vector<vec3> vertices_;
+    std::vector<std::pair<std::uint64_t, index_t>> tags_; // (tag, index) in file order
+    std::vector<std::array<std::uint64_t, 4>> tet_nodes_;  // node tags, resolved at the end
+    std::vector<std::uint64_t> tet_elements_;              // element tags, for messages
+    std::size_t skipped_ = 0;
+};
+
+// ---- writing ----
+
+template <class T>
+void put_binary(std::string& out, T v) {
+    char b[sizeof(T)];
+    std::memcpy(b, &v, sizeof(T));
+    out.append(b, sizeof(T));
+}
+
+inline void flush_if_large(std::ostream& os, std::string& buf) {
+    if (buf.size() >= (1u << 20)) {
+        os.write(buf.data(), static_cast<std::streamsize>(buf.size()));
+        buf.clear();
+    }
+}
+
+inline void write_msh_unchecked(std::ostream& os, const volume& v, msh_version version, encoding enc) {
+    const std::uint64_t n = v.vertices.size(), m = v.tets.size();
+    if (enc == encoding::ascii) {
+        text_sink out(os);
+        if (version == msh_version::v2_2) {
+            out << "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n" << n << '\n';
+            for (std::uint64_t i = 0; i < n; ++i) {
+                const vec3& p = v.vertices[i];
+                out << (i + 1) << ' ' << p.x << ' ' << p.y << ' ' << p.z << '\n';
+            }
+            out << "$EndNodes\n$Elements\n" << m << '\n';
+            for (std::uint64_t t = 0; t < m; ++t) {
+                const auto& tv = v.tets[t];
+                out << (t + 1) << " 4 2 1 1";
+                for (index_t x : tv) out << ' ' << std::uint64_t{x} + 1;
+                out << '\n';
+            }
+            out << "$EndElements\n";
+        } else {
+            vec3 lo{}, hi{};
+            if (n) lo = hi = v.vertices[0];
+            for (const vec3& p : v.vertices)
+                for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], p[k]), hi[k] = std::max(hi[k], p[k]);
+            out << "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n";
+            // One volume entity holds everything.
+            out << "$Entities\n0 0 0 1\n1 " << lo.x << ' ' << lo.y << ' ' << lo.z << ' ' << hi.x << ' ' << hi.y
+                << ' ' << hi.z << " 0 0\n$EndEntities\n";
+            out << "$Nodes\n1 " << n << ' ' << std::uint64_t{n ? 1u : 0u} << ' ' << n << "\n3 1 0 " << n << '\n';
+            for (std::uint64_t i = 0; i < n; ++i) out << (i + 1) << '\n';
+            for (const vec3& p : v.vertices) out << p.x << ' ' << p.y << ' ' << p.z << '\n';
+            out << "$EndNodes\n$Elements\n1 " << m << ' ' << std::uint64_t{m ? 1u : 0u} << ' ' << m << "\n3 1 4 "
+                << m << '\n';
+            for (std::uint64_t t = 0; t < m; ++t) {
+                out << (t + 1);
+                for (index_t x : v.tets[t]) out << ' ' << std::uint64_t{x} + 1;
+                out << '\n';
+            }
+            out << "$EndElements\n";
+        }
+        out.flush();
+        return;
+    }
+
+    std::string buf;
+    if (version == msh_version::v2_2) {
+        buf = "$MeshFormat\n2.2 1 8\n";
+        put_binary<std::int32_t>(buf, 1);
+        buf += "\n$EndMeshFormat\n$Nodes\n" + std::to_string(n) + "\n";
+        for (std::uint64_t i = 0; i < n; ++i) {
+            put_binary(buf, static_cast<std::int32_t>(i + 1));
+            put_binary(buf, v.vertices[i].x), put_binary(buf, v.vertices[i].y), put_binary(buf, v.vertices[i].z);
+            flush_if_large(os, buf);
+        }
+        buf += "\n$EndNodes\n$Elements\n" + std::to_string(m) + "\n";
+        if (m) {
+            put_binary<std::int32_t>(buf, 4), put_binary(buf, static_cast<std::int32_t>(m));
+            put_binary<std::int32_t>(buf, 2);
+        }
+        for (std::uint64_t t = 0; t < m; ++t) {
+            put_binary(buf, static_cast<std::int32_t>(t + 1));
+            put_binary<std::int32_t>(buf, 1), put_binary<std::int32_t>(buf, 1);
+            for (index_t x : v.tets[t]) put_binary(buf, static_cast<std::int32_t>(x + 1));
+            flush_if_large(os, buf);
+        }
+        buf += "\n$EndElements\n";
+    } else {
+        buf = "$MeshFormat\n4.1 1 8\n";
+        put_binary<std::int32_t>(buf, 1);
+        buf += "\n$EndMeshFormat\n$Entities\n";
+        for (std::uint64_t c : {0, 0, 0, 1}) put_binary(buf, c);
+        vec3 lo{}, hi{};
+        if (n) lo = hi = v.vertices[0];
+        for (const vec3& p : v.vertices)
+            for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], p[k]), hi[k] = std::max(hi[k], p[k]);
+        put_binary<std::int32_t>(buf, 1);
+        for (double x : {lo.x, lo.y, lo.z, hi.x, hi.y, hi.z}) put_binary(buf, x);
+        put_binary<std::uint64_t>(buf, 0), put_binary<std::uint64_t>(buf, 0);
+        buf += "\n$EndEntities\n$Nodes\n";
+        for (std::uint64_t c : {std::uint64_t{1}, n, std::uint64_t{n ? 1u : 0u}, n}) put_binary(buf, c);
+        put_binary<std::int32_t>(buf, 3), put_binary<std::int32_t>(buf, 1), put_binary<std::int32_t>(buf, 0);
+        put_binary(buf, n);
+        for (std::uint64_t i = 0; i < n; ++i) {
+            put_binary(buf, i + 1);
+            flush_if_large(os, buf);
+        }
+        for (const vec3& p : v.vertices) {
+            put_binary(buf, p.x), put_binary(buf, p.y), put_binary(buf, p.z);
+            flush_if_large(os, buf);
+        }
+        buf += "\n$EndNodes\n$Elements\n";
+        for (std::uint64_t c : {std::uint64_t{1}, m, std::uint64_t{m ? 1u : 0u}, m}) put_binary(buf, c);
+        put_binary<std::int32_t>(buf, 3), put_binary<std::int32_t>(buf, 1), put_binary<std::int32_t>(buf, 4);
+        put_binary(buf, m);
+        for (std::uint64_t t = 0; t < m; ++t) {
+            put_binary(buf, t + 1);
+            for (index_t x : v.tets[t]) put_binary(buf, std::uint64_t{x} + 1);
+            flush_if_large(os, buf);
+        }
+        buf += "\n$EndElements\n";
+    }
+    os.write(buf.data(), static_cast<std::streamsize>(buf.size()));
+}
+
+} // namespace detail
+
+/// Parses MSH held in memory; `source` names it in error messages.
+inline volume parse_msh(std::string_view data, std::string_view source) {
+    return detail::msh_parser(data, source).run();
+}
+
+inline volume read_msh(const std::filesystem::path& path) {
+    return parse_msh(detail::read_file(path), path.string());
+}
+
+/// Writes tets (element type 4) with node tags 1..n and element tags 1..m. Binary files
+/// use this machine's byte order (the format's marker records it).
+inline void write_msh(std::ostream& os, const volume& v, msh_version version = msh_version::v4_1,
+                      encoding enc = encoding::binary) {
+    detail::check_writable(v, "MSH output");
+    detail::write_msh_unchecked(os, v, version, enc);
+}
+
+/// Writes atomically: the target is either fully replaced or untouched.
+inline void write_msh(const std::filesystem::path& path, const volume& v, msh_version version = msh_version::v4_1,
+                      encoding enc = encoding::binary) {
+    detail::check_writable(v, path.string());
+    write_atomically(path, [&](std::ostream& os) { detail::write_msh_unchecked(os, v, version, enc); });
+}
+
+} // namespace idas::io

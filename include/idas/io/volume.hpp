@@ -1,0 +1,62 @@
+// The in-memory tetrahedral mesh that the volume readers produce and the writers consume.
+#pragma once
+
+#include "idas/core/types.hpp"
+#include "idas/io/surface.hpp"
+#include "idas/predicates/orient.hpp"
+
+#include <cstddef>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace idas::io {
+
+/// Tets as stored in a file: positions and 0-based corner indices. Readers guarantee
+/// every index is in range and no tet repeats a vertex; they do not check orientation
+/// or manifoldness (tet_mesh does).
+struct volume {
+    std::vector<vec3> vertices;
+    std::vector<tet_indices> tets;
+    /// Elements of other types (points, lines, triangles, higher-order cells...) that
+    /// the reader skipped.
+    std::size_t skipped_elements = 0;
+};
+
+/// Swaps two corners of every negatively oriented tet (exact orient3d), for files
+/// written with the opposite convention. Returns how many were flipped; flat tets are
+/// left alone. Precondition: indices in range (as readers guarantee).
+inline std::size_t orient_tets_positively(volume& v) {
+    std::size_t flipped = 0;
+    for (auto& t : v.tets)
+        if (orient3d(v.vertices[t[0]], v.vertices[t[1]], v.vertices[t[2]], v.vertices[t[3]]) < 0)
+            std::swap(t[2], t[3]), ++flipped;
+    return flipped;
+}
+
+namespace detail {
+
+/// Writers refuse what readers would refuse, so every file idas writes reads back.
+inline void check_writable(const volume& v, std::string_view target) {
+    if (v.vertices.size() >= invalid_index) fail(target, "too many vertices to write");
+    if (v.tets.size() >= invalid_index) fail(target, "too many tets to write");
+    for (std::size_t i = 0; i < v.vertices.size(); ++i)
+        if (!is_finite(v.vertices[i]))
+            fail(target, "vertex " + std::to_string(i) + " has a non-finite coordinate");
+    for (std::size_t t = 0; t < v.tets.size(); ++t) {
+        const tet_indices& tv = v.tets[t];
+        for (int i = 0; i < 4; ++i) {
+            if (tv[i] >= v.vertices.size())
+                fail(target, "tet " + std::to_string(t) + " references vertex " +
+                                 std::to_string(tv[i]) + " but there are only " +
+                                 std::to_string(v.vertices.size()) + " vertices");
+            for (int j = i + 1; j < 4; ++j)
+                if (tv[i] == tv[j])
+                    fail(target, "tet " + std::to_string(t) + " is degenerate (repeats a vertex)");
+        }
+    }
+}
+
+} // namespace detail
+
+} // namespace idas::io
