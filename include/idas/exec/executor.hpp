@@ -84,6 +84,7 @@ struct op_list_traits<op_list<Ops...>> {
     static void for_each(Fn&& fn) {
         (fn(Ops{}), ...);
     }
+    static constexpr bool adds_simplices = ((Ops::adds_vertices + Ops::adds_faces > 0) || ...);
 };
 
 template <class Op>
@@ -132,7 +133,10 @@ public:
         const auto start = std::chrono::steady_clock::now();
         if constexpr (requires { spec.prepare(m); }) spec.prepare(m);
         run_report report;
-        if constexpr (Lock::parallel) {
+        // Operations that create simplices run in parallel only on backends that can deal
+        // out new slots to workers.
+        constexpr bool can_run_parallel = !ops::adds_simplices || Mesh::parallel_growth;
+        if constexpr (Lock::parallel && can_run_parallel) {
             if (options.threads > 1) report = run_parallel(m, spec, options);
             else report = run_serial(m, spec);
         } else {
@@ -312,8 +316,15 @@ private:
     static run_report run_parallel(Mesh& m, Spec& spec, const exec_options& o) {
         const unsigned T = o.threads;
         const unsigned P = T * std::max(1u, o.parts_per_thread);
-        Lock locks(m.vertex_slots());
         m.set_slot_recycling(false);
+        if constexpr (ops::adds_simplices) {
+            // Room for the growth the spec expects (default: the mesh may double), dealt
+            // out to the workers; an operation that does not fit waits for the serial pass.
+            index_t extra_vertices = std::max<index_t>(4096, m.vertex_slots());
+            if constexpr (requires { spec.parallel_growth(m); }) extra_vertices = spec.parallel_growth(m);
+            m.begin_parallel(P, extra_vertices, 2 * extra_vertices);
+        }
+        Lock locks(m.vertex_slots()); // after growth: new vertices get lock words too
         std::vector<std::unique_ptr<worker_state>> workers;
         for (unsigned w = 0; w < P; ++w) workers.push_back(std::make_unique<worker_state>());
 
@@ -354,6 +365,7 @@ private:
 
         auto drain = [&](unsigned w) {
             worker_state& me = *workers[w];
+            detail::worker_index = w;
             const std::uint32_t owner = w + 1;
             held_vertices held;
             std::vector<entry> renewed;
@@ -408,6 +420,13 @@ private:
                         release(locks, owner, held);
                         return;
                     }
+                    if (!m.has_room(Op::adds_vertices, Op::adds_faces)) {
+                        release(locks, owner, held);
+                        ++me.report.lock_failures, ++me.report.deferred_to_serial;
+                        tbb::spin_mutex::scoped_lock lk(final_mutex);
+                        final_pass.push_back(e);
+                        return;
+                    }
                     ++me.report.attempted;
                     const std::int64_t fd = me.ctx.face_delta, vd = me.ctx.vertex_delta;
                     auto r = apply(Op{}, m, e.tuple, spec, me.ctx);
@@ -453,7 +472,9 @@ private:
             report.lock_failures += r.lock_failures, report.deferred_to_serial += r.deferred_to_serial;
             report.stolen += r.stolen;
         }
+        if constexpr (ops::adds_simplices) m.end_parallel();
         m.set_slot_recycling(true);
+        detail::worker_index = 0;
 
         // Final serial pass: entries that kept losing lock races, then anything left.
         progress p = global_progress();

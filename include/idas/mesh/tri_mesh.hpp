@@ -5,6 +5,7 @@
 #include <idas/core/attribute.hpp>
 #include <idas/core/concepts.hpp>
 #include <idas/core/tuple.hpp>
+#include <idas/mesh/backend/corner_table_tri.hpp>
 #include <idas/mesh/backend/indexed_tri.hpp>
 #include <idas/mesh/topology_report.hpp>
 
@@ -96,9 +97,8 @@ public:
     /// Edge identity: the smaller of the edge's two half-edge slots.
     index_t eid(const tuple& t) const noexcept {
         const index_t h = 3 * t.fid + t.local_edge;
-        const index_t g = conn_.opposite_face(t.fid, t.local_edge);
-        if (g == invalid_index) return h;
-        return std::min(h, 3 * g + local_edge_of(g, t.vid, other_endpoint(t)));
+        const auto [g, le] = opposite_edge(t);
+        return g == invalid_index ? h : std::min(h, 3 * g + le);
     }
 
     /// Same edge and face, other vertex.
@@ -119,9 +119,9 @@ public:
     }
     /// Same vertex and edge, the other face; nothing on the boundary.
     std::optional<tuple> switch_face(const tuple& t) const noexcept {
-        const index_t g = conn_.opposite_face(t.fid, t.local_edge);
+        const auto [g, le] = opposite_edge(t);
         if (g == invalid_index) return std::nullopt;
-        return tuple{t.vid, g, local_edge_of(g, t.vid, other_endpoint(t)), conn_.face_version(g)};
+        return tuple{t.vid, g, le, conn_.face_version(g)};
     }
 
     bool is_boundary_edge(const tuple& t) const noexcept {
@@ -130,9 +130,13 @@ public:
     /// A manifold vertex is on the boundary iff its faces' fan is open: one more
     /// neighbour than faces.
     bool is_boundary_vertex(index_t v) const noexcept {
-        boost::container::small_vector<index_t, 24> ring;
-        one_ring_vertices(v, ring);
-        return ring.size() != std::ranges::size(conn_.vertex_faces(v));
+        if constexpr (requires { { conn_.is_boundary_vertex(v) } -> std::convertible_to<bool>; }) {
+            return conn_.is_boundary_vertex(v); // a backend that circulates knows directly
+        } else {
+            boost::container::small_vector<index_t, 24> ring;
+            one_ring_vertices(v, ring);
+            return std::cmp_not_equal(ring.size(), std::ranges::distance(conn_.vertex_faces(v)));
+        }
     }
 
     /// Appends the vertices adjacent to v (each once) to `out`.
@@ -219,6 +223,30 @@ public:
     void touch_face(index_t f, undo_log& log) { conn_.touch_face(f, log); }
     void rollback(undo_log& log, std::size_t mark) { conn_.rollback(log, mark); }
     void set_slot_recycling(bool on) noexcept { conn_.set_slot_recycling(on); }
+
+    /// Whether the backend can hand out new slots to concurrent workers.
+    static constexpr bool parallel_growth = requires(Backend b, unsigned w, index_t n) {
+        b.begin_parallel(w, n, n);
+        b.end_parallel();
+        { b.has_room(n, n) } -> std::convertible_to<bool>;
+    };
+    /// Grows every array once so `workers` workers can add up to the given numbers of
+    /// vertices and faces concurrently (see the backend's begin_parallel).
+    void begin_parallel(unsigned workers, index_t extra_vertices, index_t extra_faces)
+        requires parallel_growth
+    {
+        conn_.begin_parallel(workers, extra_vertices, extra_faces);
+        grow_attributes();
+    }
+    void end_parallel()
+        requires parallel_growth
+    {
+        conn_.end_parallel();
+    }
+    bool has_room(index_t vertices, index_t faces) const noexcept {
+        if constexpr (parallel_growth) return conn_.has_room(vertices, faces);
+        else return true;
+    }
     void reserve(index_t vertices, index_t faces) {
         conn_.reserve(vertices, faces);
         attrs_.ensure(simplex_kind::vertex, vertices);
@@ -278,6 +306,20 @@ private:
         attrs_.ensure(simplex_kind::face, face_slots());
         attrs_.ensure(simplex_kind::edge, edge_slots());
     }
+    /// The tuple's edge seen from the face across: that face and the edge's local index
+    /// there, or {invalid_index, 0} on the boundary. A backend that stores opposite
+    /// corners answers with one load; otherwise the face across is searched for.
+    std::pair<index_t, std::uint8_t> opposite_edge(const tuple& t) const noexcept {
+        if constexpr (requires {
+                          { conn_.opposite_edge(t.fid, t.local_edge) } -> std::same_as<std::pair<index_t, std::uint8_t>>;
+                      }) {
+            return conn_.opposite_edge(t.fid, t.local_edge);
+        } else {
+            const index_t g = conn_.opposite_face(t.fid, t.local_edge);
+            if (g == invalid_index) return {invalid_index, 0};
+            return {g, local_edge_of(g, t.vid, other_endpoint(t))};
+        }
+    }
     index_t other_endpoint(const tuple& t) const noexcept {
         const auto& fv = conn_.face_vertices(t.fid);
         const index_t x = fv[(t.local_edge + 1) % 3];
@@ -322,5 +364,6 @@ bool identical(const tri_mesh<Backend>& a, const tri_mesh<Backend>& b) {
 }
 
 static_assert(tri_mesh_like<tri_mesh<backend::indexed_tri>>);
+static_assert(tri_mesh_like<tri_mesh<backend::corner_table_tri>>);
 
 } // namespace idas

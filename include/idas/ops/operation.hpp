@@ -17,15 +17,33 @@
 namespace idas {
 
 /// Operation kinds are types; `id` is what a scheduler queue entry stores.
+/// `adds_vertices` / `adds_faces`: at most how many simplices one operation creates, so a
+/// parallel worker can tell in advance whether its slot pool can serve it.
 namespace op {
-struct split_edge { static constexpr std::uint8_t id = 0; };
-struct collapse_edge { static constexpr std::uint8_t id = 1; };
-struct swap_edge { static constexpr std::uint8_t id = 2; };
-struct smooth_vertex { static constexpr std::uint8_t id = 3; };
+struct split_edge {
+    static constexpr std::uint8_t id = 0;
+    static constexpr index_t adds_vertices = 1, adds_faces = 2;
+};
+struct collapse_edge {
+    static constexpr std::uint8_t id = 1;
+    static constexpr index_t adds_vertices = 0, adds_faces = 0;
+};
+struct swap_edge {
+    static constexpr std::uint8_t id = 2;
+    static constexpr index_t adds_vertices = 0, adds_faces = 0;
+};
+struct smooth_vertex {
+    static constexpr std::uint8_t id = 3;
+    static constexpr index_t adds_vertices = 0, adds_faces = 0;
+};
 } // namespace op
 
 template <class Op>
-concept operation_kind = requires { { Op::id } -> std::convertible_to<std::uint8_t>; };
+concept operation_kind = requires {
+    { Op::id } -> std::convertible_to<std::uint8_t>;
+    { Op::adds_vertices } -> std::convertible_to<index_t>;
+    { Op::adds_faces } -> std::convertible_to<index_t>;
+};
 
 /// What an operation created: an anchor tuple (documented per operation) and the faces
 /// (or tets) that are new or changed, each with the old simplex it came from.

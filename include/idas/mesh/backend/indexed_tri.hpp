@@ -21,7 +21,7 @@ public:
     struct undo_entry {
         enum class what : std::uint8_t {
             face_set, face_added, vertex_added, vertex_removed, vertex_dropped, vertex_reused, vf_insert, vf_erase, free_face_pushed,
-            free_face_popped
+            free_face_popped, vertex_from_pool, face_from_pool
         };
         what kind;
         index_t a = 0, b = 0, c = 0; // face or vertex; vf: vertex, face, position
@@ -80,12 +80,62 @@ public:
     /// recycled (the free lists would be shared state); `consolidate` reclaims them later.
     void set_slot_recycling(bool on) noexcept { recycle_ = on; }
 
+    /// Prepares for `workers` concurrent workers that may add simplices: the arrays grow
+    /// once, here, by the given number of dead slots, which are dealt out to per-worker
+    /// pools. A worker's add_* then takes from its own pool (detail::worker_index): no
+    /// reallocation, no atomics. Recycling is off until end_parallel.
+    void begin_parallel(unsigned workers, index_t extra_vertices, index_t extra_faces) {
+        recycle_ = false;
+        pools_.assign(workers, {});
+        const index_t v0 = vertex_slots(), f0 = face_slots();
+        vf_.resize(std::size_t(v0) + extra_vertices);
+        valive_.resize(std::size_t(v0) + extra_vertices, 0);
+        fv_.resize(std::size_t(f0) + extra_faces, {invalid_index, invalid_index, invalid_index});
+        version_.resize(std::size_t(f0) + extra_faces, 0);
+        // Blocks, pushed in reverse so each worker hands out ascending slots.
+        for (unsigned w = 0; w < workers; ++w) {
+            auto& p = pools_[w];
+            const index_t vb = v0 + index_t(std::size_t(extra_vertices) * w / workers);
+            const index_t ve = v0 + index_t(std::size_t(extra_vertices) * (w + 1) / workers);
+            const index_t fb = f0 + index_t(std::size_t(extra_faces) * w / workers);
+            const index_t fe = f0 + index_t(std::size_t(extra_faces) * (w + 1) / workers);
+            for (index_t v = ve; v-- > vb;) p.vertices.push_back(v);
+            for (index_t f = fe; f-- > fb;) p.faces.push_back(f);
+        }
+        parallel_ = true;
+    }
+    /// Unused pool slots become ordinary recyclable dead slots again.
+    void end_parallel() {
+        parallel_ = false;
+        recycle_ = true;
+        for (auto& p : pools_) {
+            free_vertices_.insert(free_vertices_.end(), p.vertices.rbegin(), p.vertices.rend());
+            free_faces_.insert(free_faces_.end(), p.faces.rbegin(), p.faces.rend());
+        }
+        pools_.clear();
+    }
+    /// Whether this worker's pool can serve an operation adding these many simplices.
+    bool has_room(index_t vertices, index_t faces) const noexcept {
+        if (!parallel_) return true;
+        const auto& p = pools_[detail::worker_index];
+        return p.vertices.size() >= vertices && p.faces.size() >= faces;
+    }
+
     // ---- journaled mutation ----
 
     // Dead slots are recycled (newest first), so a long run of splits and collapses
     // keeps the arrays at a steady size instead of growing without bound. A recycled
     // face slot keeps counting versions, so old tuples to it stay stale.
     index_t add_vertex(undo_log& log) {
+        if (parallel_) {
+            auto& pool = pools_[detail::worker_index].vertices;
+            assert(!pool.empty());
+            const index_t v = pool.back();
+            pool.pop_back();
+            valive_[v] = 1;
+            log.push_back({undo_entry::what::vertex_from_pool, v});
+            return v;
+        }
         if (recycle_ && !free_vertices_.empty()) {
             const index_t v = free_vertices_.back();
             free_vertices_.pop_back();
@@ -107,7 +157,16 @@ public:
     }
     index_t add_face(const tri_indices& f, undo_log& log) {
         index_t id;
-        if (recycle_ && !free_faces_.empty()) {
+        if (parallel_) {
+            auto& pool = pools_[detail::worker_index].faces;
+            assert(!pool.empty());
+            id = pool.back();
+            pool.pop_back();
+            log.push_back({undo_entry::what::face_from_pool, id});
+            save_face(id, log);
+            fv_[id] = f;
+            ++version_[id];
+        } else if (recycle_ && !free_faces_.empty()) {
             id = free_faces_.back();
             free_faces_.pop_back();
             log.push_back({undo_entry::what::free_face_popped, id});
@@ -175,6 +234,11 @@ public:
                 free_vertices_.push_back(e.a);
                 break;
             case w::free_face_pushed: free_faces_.pop_back(); break;
+            case w::vertex_from_pool:
+                valive_[e.a] = 0;
+                pools_[detail::worker_index].vertices.push_back(e.a);
+                break;
+            case w::face_from_pool: pools_[detail::worker_index].faces.push_back(e.a); break;
             case w::free_face_popped: free_faces_.push_back(e.a); break;
             case w::vf_insert:
                 assert(!vf_[e.a].empty() && vf_[e.a].back() == e.b);
@@ -214,6 +278,12 @@ private:
     std::vector<std::uint8_t> valive_;
     std::vector<index_t> free_faces_, free_vertices_;
     bool recycle_ = true;
+    struct slot_pool {
+        std::vector<index_t> vertices, faces;
+        friend bool operator==(const slot_pool&, const slot_pool&) = default;
+    };
+    std::vector<slot_pool> pools_; // per parallel worker, between begin_ and end_parallel
+    bool parallel_ = false;
 };
 
 static_assert(tri_connectivity<indexed_tri>);

@@ -1,0 +1,340 @@
+// Isotropic remeshing (Botsch and Kobbelt 2004) as four IDAS specs run in turn, one
+// executor each, for a number of iterations:
+//
+//   split     edges longer than 4/3 L at their midpoints, longest first
+//   collapse  edges shorter than 4/5 L, shortest first, unless a new edge would be longer
+//             than 4/3 L
+//   swap      edges whose flip brings the four vertices' valences towards 6 (4 on the
+//             boundary)
+//   smooth    every vertex towards the centroid of its neighbours, within its tangent
+//             plane, then back onto the input surface (closest point, AABB tree)
+//
+//   I  link condition (always), no normal flip, plus any extra invariants (e.g. envelope)
+//   A  positions; per-vertex `frozen` flag: boundary vertices (on request) and vertices on
+//      sharp features (dihedral angle above a threshold), which never move nor vanish
+//   S  as above; stop after N iterations or when an iteration changes no connectivity
+#pragma once
+
+#include <idas/algorithms/decimation_common.hpp>
+#include <idas/core/aabb_tree.hpp>
+#include <idas/core/geometry.hpp>
+#include <idas/invariants/link_condition.hpp>
+#include <idas/invariants/no_normal_flip.hpp>
+
+#include <boost/container/small_vector.hpp>
+
+#include <cmath>
+#include <memory>
+#include <numbers>
+#include <optional>
+#include <tuple>
+
+namespace idas::algorithms {
+
+struct remeshing_options {
+    double target_length = 0;       // absolute edge length L
+    unsigned iterations = 5;
+    bool preserve_boundary = true;  // boundary vertices stay where they are
+    double feature_angle_deg = -1;  // dihedral angle above which an edge is sharp; <0: none
+    bool project = true;            // project smoothed vertices back onto the input
+};
+
+/// What the four phase specs share: L, the frozen flags, the input surface for projection.
+struct remeshing_state {
+    double L = 0;
+    vertex_attribute<std::uint8_t> frozen;
+    vertex_attribute<std::uint8_t> feature;
+    // Kept up to date by the phases (a split boundary edge's midpoint is on the boundary;
+    // a collapse's survivor is if either end was), so valences are O(1) to get.
+    vertex_attribute<std::uint8_t> boundary;
+    std::shared_ptr<const triangle_aabb_tree> input;
+};
+
+namespace detail {
+
+template <class Mesh>
+vec3 vertex_normal(const Mesh& m, index_t v) {
+    vec3 n{};
+    for (index_t f : m.vertex_faces(v)) n += face_normal_unnormalised(m, f); // area-weighted
+    const double l = norm(n);
+    return l > 0 ? n / l : n;
+}
+
+/// How far v's valence is from ideal (6 inside, 4 on the boundary) after `change`. A
+/// manifold vertex has as many neighbours as faces, one more on the boundary.
+template <class Mesh>
+double valence_deviation(const Mesh& m, const remeshing_state& s, index_t v, int change) {
+    const bool boundary = m.attribute(s.boundary)[v] != 0;
+    const double valence = double(std::ranges::size(m.vertex_faces(v))) + (boundary ? 1 : 0);
+    const double x = valence + change - (boundary ? 4.0 : 6.0);
+    return x * x;
+}
+
+template <class Mesh>
+double min_angle(const Mesh& m, index_t a, index_t b, index_t c) {
+    const auto t = triangle_angles(m.position(a), m.position(b), m.position(c));
+    return std::min({t[0], t[1], t[2]});
+}
+
+/// Orients an edge tuple so that a frozen endpoint is the tuple's vertex: collapses keep
+/// the tuple's vertex, so a frozen vertex is never the one removed.
+template <class Mesh>
+typename Mesh::tuple frozen_first(const Mesh& m, const remeshing_state& s, typename Mesh::tuple t) {
+    const auto fr = m.attribute(s.frozen);
+    const auto [a, b] = m.edge_vertices(t);
+    return (!fr[a] && fr[b]) ? m.switch_vertex(t) : t;
+}
+
+/// Extra invariants (such as an envelope) join the phases' own no_normal_flip.
+template <class... Extra>
+struct with_invariants {
+    std::tuple<Extra...> extra;
+    auto invariants() const {
+        return std::apply([](const Extra&... e) { return invariant_set<no_normal_flip, Extra...>(no_normal_flip{}, e...); },
+                          extra);
+    }
+};
+template <>
+struct with_invariants<> {
+    std::tuple<> extra;
+    auto invariants() const { return invariant_set<no_normal_flip>{}; }
+};
+
+} // namespace detail
+
+template <class... Extra>
+struct remesh_split_spec : detail::with_invariants<Extra...> {
+    using operations = op_list<op::split_edge>;
+    remeshing_state* s = nullptr;
+
+    struct cache {
+        vec3 position;
+        bool frozen, feature, boundary;
+    };
+
+    template <class Mesh>
+    bool too_long(const Mesh& m, const typename Mesh::tuple& t) const {
+        const auto [a, b] = m.edge_vertices(t);
+        const double hi = 4.0 / 3.0 * s->L;
+        return squared_norm(m.position(a) - m.position(b)) > hi * hi;
+    }
+    // Only candidates enter the queue: most edges are already fine.
+    template <class Push, class Mesh>
+    void initial(const Mesh& m, Push& push) const {
+        m.for_each_edge([&](const typename Mesh::tuple& t) {
+            if (too_long(m, t)) push(op::split_edge{}, t);
+        });
+    }
+    template <class Mesh>
+    double priority(op::split_edge, const Mesh& m, const typename Mesh::tuple& t) const {
+        const auto [a, b] = m.edge_vertices(t);
+        return -squared_norm(m.position(a) - m.position(b)); // longest first
+    }
+    template <class Mesh>
+    std::optional<cache> before(op::split_edge, const Mesh& m, const typename Mesh::tuple& t) const {
+        const auto [a, b] = m.edge_vertices(t);
+        const double hi = 4.0 / 3.0 * s->L;
+        if (!(squared_norm(m.position(a) - m.position(b)) > hi * hi)) return std::nullopt;
+        const auto fe = m.attribute(s->feature), fr = m.attribute(s->frozen);
+        // A split boundary edge keeps its new vertex on the boundary; one joining two
+        // feature vertices is taken to lie on the feature line.
+        const bool on_feature = fe[a] && fe[b];
+        const bool boundary_edge = m.is_boundary_edge(t);
+        const bool keep = boundary_edge && fr[a] && fr[b];
+        return cache{(m.position(a) + m.position(b)) * 0.5, on_feature || keep, on_feature, boundary_edge};
+    }
+    template <class Mesh>
+    bool after(op::split_edge, Mesh& m, const op_result<typename Mesh::tuple>& r, const cache& c) const {
+        const index_t v = r.anchor.vid;
+        m.positions().set(v, c.position);
+        m.attribute(s->frozen).set(v, c.frozen);
+        m.attribute(s->feature).set(v, c.feature);
+        m.attribute(s->boundary).set(v, c.boundary);
+        return true;
+    }
+    template <class Mesh, class Push>
+    void renew(op::split_edge, const Mesh& m, const op_result<typename Mesh::tuple>& r, Push& push) const {
+        auto candidates = [&](op::split_edge o, const typename Mesh::tuple& t) {
+            if (too_long(m, t)) push(o, t); // halves still too long are split again
+        };
+        push_star_edges<op::split_edge>(m, r, candidates);
+    }
+};
+
+template <class... Extra>
+struct remesh_collapse_spec : detail::with_invariants<Extra...> {
+    using operations = op_list<op::collapse_edge>;
+    remeshing_state* s = nullptr;
+
+    template <class Mesh>
+    bool too_short(const Mesh& m, const typename Mesh::tuple& t) const {
+        const auto [a, b] = m.edge_vertices(t);
+        const double lo = 0.8 * s->L;
+        return squared_norm(m.position(a) - m.position(b)) < lo * lo;
+    }
+    template <class Push, class Mesh>
+    void initial(const Mesh& m, Push& push) const {
+        m.for_each_edge([&](const typename Mesh::tuple& t) {
+            if (too_short(m, t)) push(op::collapse_edge{}, detail::frozen_first(m, *s, t));
+        });
+    }
+    template <class Mesh>
+    double priority(op::collapse_edge, const Mesh& m, const typename Mesh::tuple& t) const {
+        const auto [a, b] = m.edge_vertices(t);
+        return squared_norm(m.position(a) - m.position(b)); // shortest first
+    }
+    template <class Mesh>
+    std::optional<vec3> before(op::collapse_edge, const Mesh& m, const typename Mesh::tuple& t) const {
+        const auto [a, b] = m.edge_vertices(t);
+        const double lo = 0.8 * s->L, hi = 4.0 / 3.0 * s->L;
+        if (!(squared_norm(m.position(a) - m.position(b)) < lo * lo)) return std::nullopt;
+        const auto fr = m.attribute(s->frozen), bd = m.attribute(s->boundary);
+        if (fr[b]) return std::nullopt; // a frozen vertex never vanishes
+        vec3 p = fr[a] ? m.position(a) : (m.position(a) + m.position(b)) * 0.5;
+        if (!fr[a] && bd[a] != bd[b]) p = m.position(bd[a] ? a : b); // keep an open boundary in place
+        // Refuse if the merged vertex would get an edge longer than 4/3 L.
+        for (index_t v : {a, b})
+            for (index_t f : m.vertex_faces(v))
+                for (index_t w : m.face_vertices(f))
+                    if (w != a && w != b && squared_norm(m.position(w) - p) > hi * hi) return std::nullopt;
+        return p;
+    }
+    template <class Mesh>
+    bool after(op::collapse_edge, Mesh& m, const op_result<typename Mesh::tuple>& r, const vec3& p) const {
+        m.positions().set(r.anchor.vid, p);
+        // The survivor took over b's faces: it is on the boundary if any of them is open.
+        bool open = false;
+        for (const auto& c : r.cells) open = open || m.is_boundary_edge(c) || m.is_boundary_edge(m.switch_edge(c));
+        m.attribute(s->boundary).set(r.anchor.vid, open);
+        return true;
+    }
+    template <class Mesh, class Push>
+    void renew(op::collapse_edge, const Mesh& m, const op_result<typename Mesh::tuple>& r, Push& push) const {
+        auto oriented = [&](op::collapse_edge o, const typename Mesh::tuple& t) {
+            if (too_short(m, t)) push(o, detail::frozen_first(m, *s, t));
+        };
+        push_star_edges<op::collapse_edge>(m, r, oriented);
+    }
+};
+
+template <class... Extra>
+struct remesh_swap_spec : detail::with_invariants<Extra...> {
+    using operations = op_list<op::swap_edge>;
+    remeshing_state* s = nullptr;
+
+    template <class Mesh>
+    bool before(op::swap_edge, const Mesh& m, const typename Mesh::tuple& t) const {
+        if (m.is_boundary_edge(t)) return false;
+        const auto [a, b] = m.edge_vertices(t);
+        const auto fe = m.attribute(s->feature);
+        if (fe[a] && fe[b]) return false; // keep feature lines
+        const index_t c = m.opposite_vertex(t), d = m.opposite_vertex(*m.switch_face(t));
+        auto dev = [&](index_t v, int change) { return detail::valence_deviation(m, *s, v, change); };
+        const double now = dev(a, 0) + dev(b, 0) + dev(c, 0) + dev(d, 0);
+        const double then = dev(a, -1) + dev(b, -1) + dev(c, +1) + dev(d, +1);
+        if (!(then < now)) return false;
+        // Better valences are not worth a sliver: the flip may not halve the quad's
+        // smallest angle (a concave or nearly degenerate quad fails this).
+        const double old_min = std::min(detail::min_angle(m, a, b, c), detail::min_angle(m, b, a, d));
+        const double new_min = std::min(detail::min_angle(m, c, d, a), detail::min_angle(m, d, c, b));
+        return new_min >= 0.5 * old_min;
+    }
+};
+
+template <class... Extra>
+struct remesh_smooth_spec : detail::with_invariants<Extra...> {
+    using operations = op_list<op::smooth_vertex>;
+    remeshing_state* s = nullptr;
+    bool project = true;
+
+    template <class Mesh>
+    std::optional<vec3> before(op::smooth_vertex, const Mesh& m, const typename Mesh::tuple& t) const {
+        const index_t v = t.vid;
+        if (m.attribute(s->frozen)[v] || m.attribute(s->boundary)[v]) return std::nullopt;
+        boost::container::small_vector<index_t, 32> ring;
+        m.one_ring_vertices(v, ring);
+        vec3 c{};
+        for (index_t w : ring) c += m.position(w);
+        c /= double(ring.size());
+        const vec3 p = m.position(v), n = detail::vertex_normal(m, v);
+        vec3 q = p + (c - p) - n * dot(c - p, n); // tangential part of the move only
+        if (project && s->input) q = s->input->closest_point(q).point;
+        return q;
+    }
+    template <class Mesh>
+    bool after(op::smooth_vertex, Mesh& m, const op_result<typename Mesh::tuple>& r, const vec3& q) const {
+        m.positions().set(r.anchor.vid, q);
+        return true;
+    }
+};
+
+struct remeshing_report {
+    unsigned iterations = 0;
+    std::uint64_t splits = 0, collapses = 0, swaps = 0, smooths = 0;
+    double seconds = 0;
+};
+
+/// The whole algorithm: policies as template arguments, extra invariants as `Extra...`
+/// (constructed by the caller, e.g. an envelope of the input).
+template <class Mesh = tri_mesh<>, class Lock = lock::vertex_try_lock, class Queue = queue::dary_heap<4>,
+          class Partition = partition::morton, class... Extra>
+struct isotropic_remeshing {
+    static remeshing_report run(Mesh& m, const remeshing_options& o, const exec_options& exec = {},
+                                Extra... extra) {
+        const auto start = std::chrono::steady_clock::now();
+        remeshing_state s;
+        s.L = o.target_length;
+        s.frozen = m.template add_vertex_attribute<std::uint8_t>("remesh_frozen", 0);
+        s.feature = m.template add_vertex_attribute<std::uint8_t>("remesh_feature", 0);
+        s.boundary = m.template add_vertex_attribute<std::uint8_t>("remesh_boundary", 0);
+        {
+            auto [V, F] = m.to_arrays();
+            if (o.project) s.input = std::make_shared<const triangle_aabb_tree>(V, F);
+        }
+        mark_frozen(m, s, o);
+
+        remesh_split_spec<Extra...> split{{std::tuple<Extra...>(extra...)}, &s};
+        remesh_collapse_spec<Extra...> collapse{{std::tuple<Extra...>(extra...)}, &s};
+        remesh_swap_spec<Extra...> swap{{std::tuple<Extra...>(extra...)}, &s};
+        remesh_smooth_spec<Extra...> smooth{{std::tuple<Extra...>(extra...)}, &s, o.project};
+
+        remeshing_report report;
+        for (unsigned it = 0; it < o.iterations; ++it) {
+            const auto a = executor<remesh_split_spec<Extra...>, Mesh, Lock, Queue, Partition>::run(m, split, exec);
+            const auto b = executor<remesh_collapse_spec<Extra...>, Mesh, Lock, Queue, Partition>::run(m, collapse, exec);
+            const auto c = executor<remesh_swap_spec<Extra...>, Mesh, Lock, queue::fifo, Partition>::run(m, swap, exec);
+            const auto d = executor<remesh_smooth_spec<Extra...>, Mesh, Lock, queue::fifo, Partition>::run(m, smooth, exec);
+            report.splits += a.succeeded, report.collapses += b.succeeded, report.swaps += c.succeeded;
+            report.smooths += d.succeeded;
+            ++report.iterations;
+            if (a.succeeded + b.succeeded + c.succeeded == 0) break; // converged
+        }
+        report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        return report;
+    }
+
+private:
+    static void mark_frozen(Mesh& m, remeshing_state& s, const remeshing_options& o) {
+        auto fr = m.attribute(s.frozen);
+        auto fe = m.attribute(s.feature);
+        auto bd = m.attribute(s.boundary);
+        m.for_each_vertex([&](const typename Mesh::tuple& t) {
+            if (m.is_boundary_vertex(t.vid)) bd.raw(t.vid) = 1, fr.raw(t.vid) = o.preserve_boundary;
+        });
+        if (o.feature_angle_deg >= 0) {
+            const double cos_limit = std::cos(o.feature_angle_deg * std::numbers::pi / 180.0);
+            m.for_each_edge([&](const typename Mesh::tuple& t) {
+                const auto g = m.switch_face(t);
+                if (!g) return;
+                vec3 n1 = face_normal_unnormalised(m, t.fid), n2 = face_normal_unnormalised(m, g->fid);
+                const double l = norm(n1) * norm(n2);
+                if (l > 0 && dot(n1, n2) / l < cos_limit) {
+                    const auto [a, b] = m.edge_vertices(t);
+                    fr.raw(a) = fr.raw(b) = fe.raw(a) = fe.raw(b) = 1;
+                }
+            });
+        }
+    }
+};
+
+} // namespace idas::algorithms

@@ -1,0 +1,115 @@
+// Isotropic remeshing: topology kept, edge lengths near the target, regular valences,
+// serial and parallel; with the envelope invariant, an independent sampled distance check.
+#include "../test_support.hpp"
+
+#include <algorithm>
+#include <tuple>
+
+#include <idas/algorithms/isotropic_remeshing.hpp>
+#include <idas/core/aabb_tree.hpp>
+#include <idas/mesh/surface_distance.hpp>
+
+using namespace idas;
+using namespace idas::algorithms;
+
+namespace {
+
+struct quality {
+    double mean_length = 0, valence6 = 0;
+    long chi = 0;
+    std::size_t loops = 0, components = 0;
+};
+
+quality measure(const tri_mesh<>& m) {
+    quality q;
+    std::size_t n = 0, interior = 0, six = 0;
+    m.for_each_edge([&](const tri_tuple& t) {
+        const auto [a, b] = m.edge_vertices(t);
+        q.mean_length += norm(m.position(a) - m.position(b));
+        ++n;
+    });
+    q.mean_length /= double(n);
+    m.for_each_vertex([&](const tri_tuple& t) {
+        if (m.is_boundary_vertex(t.vid)) return;
+        std::vector<index_t> ring;
+        m.one_ring_vertices(t.vid, ring);
+        ++interior;
+        six += ring.size() == 6;
+    });
+    q.valence6 = double(six) / double(interior);
+    const auto [V, F] = m.to_arrays();
+    const auto r = diagnose_topology(V.size(), F);
+    q.chi = r.euler_characteristic, q.loops = r.boundary_loops, q.components = r.components;
+    return q;
+}
+
+double diagonal(const tri_mesh<>& m) {
+    const auto [V, F] = m.to_arrays();
+    return triangle_aabb_tree(V, F).diagonal();
+}
+
+void check_remesh(const char* file, double relative_length, unsigned threads) {
+    CAPTURE(file);
+    CAPTURE(threads);
+    auto m = idas::test::load(file);
+    const auto before = measure(m);
+    remeshing_options o;
+    o.target_length = relative_length * diagonal(m);
+    o.iterations = 5;
+    const auto r = isotropic_remeshing<>::run(m, o, {.threads = threads});
+    CHECK(r.splits + r.collapses > 0);
+    const auto e = find_inconsistency(m);
+    REQUIRE_MESSAGE(!e, *e);
+    const auto after = measure(m);
+    CHECK(after.chi == before.chi);
+    CHECK(after.loops == before.loops);
+    CHECK(after.components == before.components);
+    CHECK(std::abs(after.mean_length - o.target_length) <= 0.1 * o.target_length);
+    CHECK(after.valence6 > 0.6);
+}
+
+} // namespace
+
+TEST_CASE("remeshing bunny (open) and armadillo (closed), serial") {
+    check_remesh("bunny.obj", 0.01, 1);
+    check_remesh("armadillo.obj", 0.008, 1);
+}
+
+TEST_CASE("parallel remeshing: bunny and blub on 2 and 8 threads") {
+    check_remesh("bunny.obj", 0.01, 2);
+    check_remesh("blub.obj", 0.01, 8);
+}
+
+TEST_CASE("remeshing keeps boundaries in place and refines towards the target") {
+    auto m = idas::test::load("bunny.obj");
+    std::vector<vec3> boundary_before;
+    m.for_each_vertex([&](const tri_tuple& t) {
+        if (m.is_boundary_vertex(t.vid)) boundary_before.push_back(m.position(t.vid));
+    });
+    remeshing_options o;
+    o.target_length = 0.004 * diagonal(m); // finer than the input along the boundary
+    o.iterations = 3;
+    isotropic_remeshing<>::run(m, o, {.threads = 2});
+    // Every original boundary vertex is still there, unmoved.
+    std::vector<vec3> boundary_after;
+    m.for_each_vertex([&](const tri_tuple& t) {
+        if (m.is_boundary_vertex(t.vid)) boundary_after.push_back(m.position(t.vid));
+    });
+    auto key = [](const vec3& a, const vec3& b) { return std::tie(a.x, a.y, a.z) < std::tie(b.x, b.y, b.z); };
+    std::sort(boundary_after.begin(), boundary_after.end(), key);
+    for (const auto& p : boundary_before) CHECK(std::binary_search(boundary_after.begin(), boundary_after.end(), p, key));
+}
+
+TEST_CASE("remeshing stays close to the input surface") {
+    // Independent check: sample the output, measure distances to the input with an AABB
+    // tree. Projection keeps smoothed vertices on the input, but splits and collapses put
+    // vertices on chords of curved regions, so without an envelope the bound is about L.
+    auto m = idas::test::load("blub.obj");
+    const auto [V0, F0] = m.to_arrays();
+    const triangle_aabb_tree input(V0, F0);
+    remeshing_options o;
+    o.target_length = 0.01 * input.diagonal();
+    isotropic_remeshing<>::run(m, o, {.threads = 2});
+    const auto [V, F] = m.to_arrays();
+    CHECK(max_sampled_distance(V, F, input, 4) < o.target_length);
+}
