@@ -20,12 +20,14 @@ struct remesh_arguments {
 };
 
 template <class Mesh, class... Extra>
-idas::algorithms::remeshing_report remesh_with(Mesh& m, const idas::algorithms::remeshing_options& o,
+idas::algorithms::remeshing_report remesh_with(Mesh& m,
+                                               const idas::algorithms::remeshing_options& o,
                                                unsigned threads, Extra... extra) {
     idas::exec_options exec;
     exec.threads = threads;
-    return idas::algorithms::isotropic_remeshing<Mesh, idas::lock::vertex_try_lock, idas::queue::dary_heap<4>,
-                                                 idas::partition::morton, Extra...>::run(m, o, exec, extra...);
+    return idas::algorithms::isotropic_remeshing<Mesh, idas::lock::vertex_try_lock,
+                                                 idas::queue::dary_heap<4>, idas::partition::morton,
+                                                 Extra...>::run(m, o, exec, extra...);
 }
 
 int run_remesh(const remesh_arguments& a) {
@@ -84,11 +86,13 @@ int run_remesh(const remesh_arguments& a) {
         j["output_stats"] = stats_json(out_stats);
         fmt::print("{}\n", j.dump(2));
     } else {
-        fmt::print("{}: {} -> {} faces, target edge length {:.6g}, {} iterations on {} thread{} in {:.3f} s "
+        fmt::print("{}: {} -> {} faces, target edge length {:.6g}, {} iterations on {} thread{} in "
+                   "{:.3f} s "
                    "({:.3f} s total)\n",
-                   a.in, s.faces.size(), result.faces.size(), o.target_length, r.iterations, a.threads,
-                   a.threads == 1 ? "" : "s", r.seconds, total.seconds());
-        fmt::print("  splits {}, collapses {}, swaps {}, smooths {}\n", r.splits, r.collapses, r.swaps, r.smooths);
+                   a.in, s.faces.size(), result.faces.size(), o.target_length, r.iterations,
+                   a.threads, a.threads == 1 ? "" : "s", r.seconds, total.seconds());
+        fmt::print("  splits {}, collapses {}, swaps {}, smooths {}\n", r.splits, r.collapses,
+                   r.swaps, r.smooths);
         fmt::print("{}\n", a.out);
         print_stats(out_stats);
     }

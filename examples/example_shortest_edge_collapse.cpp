@@ -32,21 +32,24 @@ struct shortest_edge_collapse {
         auto [a, b] = m.edge_vertices(t);
         return (m.position(a) + m.position(b)) * 0.5;
     }
-    bool after(op::collapse_edge, mesh& m, const idas::op_result<tuple>& r, const idas::vec3& p) const {
+    bool after(op::collapse_edge, mesh& m, const idas::op_result<tuple>& r,
+               const idas::vec3& p) const {
         m.positions().set(r.anchor.vid, p);
         return true;
     }
 
     // S: after a success, the new star's edges go back into the queue; stop at the target.
     template <class Push>
-    void renew(op::collapse_edge, const mesh& m, const idas::op_result<tuple>& r, Push& push) const {
+    void renew(op::collapse_edge, const mesh& m, const idas::op_result<tuple>& r,
+               Push& push) const {
         idas::algorithms::push_star_edges<op::collapse_edge>(m, r, push);
     }
     bool stop(const idas::progress& p) const { return p.faces <= target_faces; }
 };
 
 // The algorithm is a type: spec, data structure, lock, queue and partition policies.
-using serial = idas::executor<shortest_edge_collapse, mesh, idas::lock::none, idas::queue::dary_heap<4>>;
+using serial =
+    idas::executor<shortest_edge_collapse, mesh, idas::lock::none, idas::queue::dary_heap<4>>;
 using parallel = idas::executor<shortest_edge_collapse, mesh, idas::lock::vertex_try_lock,
                                 idas::queue::dary_heap<4>, idas::partition::morton>;
 
@@ -62,9 +65,10 @@ int main(int argc, char** argv) {
             mesh m(input.vertices, input.faces);
             shortest_edge_collapse spec;
             spec.target_faces = static_cast<std::int64_t>(ratio * double(m.n_faces()));
-            const auto r = threads == 1 ? serial::run(m, spec) : parallel::run(m, spec, {.threads = threads});
-            fmt::print("{} thread(s): {} -> {} faces in {:.3f} s ({} collapses)\n", threads, input.faces.size(),
-                       m.n_faces(), r.seconds, r.succeeded);
+            const auto r =
+                threads == 1 ? serial::run(m, spec) : parallel::run(m, spec, {.threads = threads});
+            fmt::print("{} thread(s): {} -> {} faces in {:.3f} s ({} collapses)\n", threads,
+                       input.faces.size(), m.n_faces(), r.seconds, r.succeeded);
             if (threads == 1) {
                 auto [V, F] = m.to_arrays();
                 idas::io::write_surface(argv[2], {std::move(V), std::move(F)});

@@ -23,22 +23,32 @@ void* operator new[](std::size_t n) {
     if (void* p = std::malloc(n ? n : 1)) return p;
     throw std::bad_alloc();
 }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+void operator delete(void* p) noexcept {
+    std::free(p);
+}
+void operator delete[](void* p) noexcept {
+    std::free(p);
+}
+void operator delete(void* p, std::size_t) noexcept {
+    std::free(p);
+}
+void operator delete[](void* p, std::size_t) noexcept {
+    std::free(p);
+}
 
 using namespace idas;
 
 namespace {
-long allocations() { return g_allocations.load(std::memory_order_relaxed); }
+long allocations() {
+    return g_allocations.load(std::memory_order_relaxed);
+}
 
 /// Runs one round of every operation around many edges: split then collapse the new
 /// edge back, swap there and back, smooth. `spec` may fail at random (rollbacks);
 /// `keep` never fails, so every undo step succeeds and the mesh returns to the same
 /// state: a true steady state.
-template <class Spec>
-int round_of_operations(tri_mesh<>& m, Spec& spec, Spec& keep, const std::vector<index_t>& faces) {
+template <class Mesh, class Spec>
+int round_of_operations(Mesh& m, Spec& spec, Spec& keep, const std::vector<index_t>& faces) {
     int done = 0;
     for (index_t f : faces) {
         if (!m.face_alive(f)) continue;
@@ -59,8 +69,8 @@ int round_of_operations(tri_mesh<>& m, Spec& spec, Spec& keep, const std::vector
 }
 } // namespace
 
-TEST_CASE("navigation allocates nothing") {
-    auto m = idas::test::load("bunny.obj");
+TEST_CASE_TEMPLATE("navigation allocates nothing", Mesh, IDAS_TRI_MESHES) {
+    auto m = idas::test::load<Mesh>("bunny.obj");
     const auto edges = m.get_edges();
     const long before = allocations();
     std::size_t sum = 0;
@@ -73,8 +83,8 @@ TEST_CASE("navigation allocates nothing") {
     CHECK(sum > 0);
 }
 
-TEST_CASE("operations and rollbacks allocate nothing in steady state") {
-    auto m = idas::test::load("bunny.obj");
+TEST_CASE_TEMPLATE("operations and rollbacks allocate nothing in steady state", Mesh, IDAS_TRI_MESHES) {
+    auto m = idas::test::load<Mesh>("bunny.obj");
     idas::test::midpoint_spec spec;
     spec.attach(m);
     auto keep = spec;
@@ -97,6 +107,7 @@ TEST_CASE("operations and rollbacks allocate nothing in steady state") {
     const long used = allocations() - before;
     CHECK(done > 10000);
     CHECK(done_with_failures > 1000);
-    CHECK_MESSAGE(used == 0, used << " allocations in " << done + done_with_failures << " operations");
+    CHECK_MESSAGE(used == 0,
+                  used << " allocations in " << done + done_with_failures << " operations");
     CHECK_FALSE(find_inconsistency(m).has_value());
 }

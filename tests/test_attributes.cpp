@@ -3,15 +3,15 @@
 
 using namespace idas;
 
-TEST_CASE("attribute writes are journaled only inside operations") {
-    tri_mesh<> m({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0}}, {{0, 1, 2}, {1, 3, 2}});
-    auto tag = m.add_vertex_attribute<int>("tag", 7);
-    auto area = m.add_face_attribute<double>("area", 0.5);
-    auto sharp = m.add_edge_attribute<std::uint8_t>("sharp", 0);
+TEST_CASE_TEMPLATE("attribute writes are journaled only inside operations", Mesh, IDAS_TRI_MESHES) {
+    Mesh m({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0}}, {{0, 1, 2}, {1, 3, 2}});
+    auto tag = m.template add_vertex_attribute<int>("tag", 7);
+    auto area = m.template add_face_attribute<double>("area", 0.5);
+    auto sharp = m.template add_edge_attribute<std::uint8_t>("sharp", 0);
     CHECK(m.attribute(tag)[3] == 7);
     CHECK(m.attribute(area)[1] == 0.5);
-    CHECK(m.attributes().find<int, simplex_kind::vertex>("tag").column == tag.column);
-    CHECK_FALSE(m.attributes().find<double, simplex_kind::vertex>("tag").valid());
+    CHECK(m.attributes().template find<int, simplex_kind::vertex>("tag").column == tag.column);
+    CHECK_FALSE(m.attributes().template find<double, simplex_kind::vertex>("tag").valid());
 
     m.attribute(tag).set(0, 1); // outside an operation: a plain write
     CHECK(m.attribute(tag)[0] == 1);
@@ -21,7 +21,7 @@ TEST_CASE("attribute writes are journaled only inside operations") {
         vertex_attribute<int> tag;
         face_attribute<double> area;
         edge_attribute<std::uint8_t> sharp;
-        bool after(op::smooth_vertex, tri_mesh<>& m, const op_result<tri_tuple>& r) {
+        bool after(op::smooth_vertex, Mesh& m, const op_result<tri_tuple>& r) {
             m.attribute(tag).set(r.anchor.vid, 42);
             for (const auto& c : r.cells) m.attribute(area).set(c.fid, 99.0);
             m.attribute(sharp).set(m.eid(r.anchor), 1);
@@ -36,11 +36,11 @@ TEST_CASE("attribute writes are journaled only inside operations") {
     CHECK(m.position(1) == vec3{1, 0, 0});
 }
 
-TEST_CASE("consolidate compacts slots and carries attributes along") {
-    auto m = idas::test::load("bunny.off");
-    auto id = m.add_vertex_attribute<index_t>("original_id");
-    auto fid = m.add_face_attribute<index_t>("original_face");
-    auto eid = m.add_edge_attribute<double>("edge_length");
+TEST_CASE_TEMPLATE("consolidate compacts slots and carries attributes along", Mesh, IDAS_TRI_MESHES) {
+    auto m = idas::test::load<Mesh>("bunny.off");
+    auto id = m.template add_vertex_attribute<index_t>("original_id");
+    auto fid = m.template add_face_attribute<index_t>("original_face");
+    auto eid = m.template add_edge_attribute<double>("edge_length");
     for (index_t v = 0; v < m.vertex_slots(); ++v) m.attribute(id).raw(v) = v;
     for (index_t f = 0; f < m.face_slots(); ++f) m.attribute(fid).raw(f) = f;
     m.for_each_edge([&](const tri_tuple& t) {
@@ -64,7 +64,8 @@ TEST_CASE("consolidate compacts slots and carries attributes along") {
     CHECK(m.vertex_slots() == n_v);
     CHECK(m.face_slots() == n_f);
     CHECK_FALSE(find_inconsistency(m).has_value());
-    for (index_t v = 0; v < m.vertex_slots(); ++v) CHECK(pos.at(m.attribute(id)[v]) == m.position(v));
+    for (index_t v = 0; v < m.vertex_slots(); ++v)
+        CHECK(pos.at(m.attribute(id)[v]) == m.position(v));
     // Edges not touched by any collapse keep their length attribute exactly.
     int kept = 0;
     m.for_each_edge([&](const tri_tuple& t) {

@@ -26,9 +26,10 @@ struct sequence_stats {
 /// `full_every` operations and at the end; Euler characteristic and boundary loops must
 /// not change. If `compare_rollback`, each refused operation is compared bit for bit
 /// with a copy taken before it.
-sequence_stats run_sequence(const std::string& file, unsigned seed, int n, int full_every, double fail_p,
-                            bool compare_rollback) {
-    auto m = idas::test::load(file);
+template <class Mesh>
+sequence_stats run_sequence(const std::string& file, unsigned seed, int n, int full_every,
+                            double fail_p, bool compare_rollback) {
+    auto m = idas::test::load<Mesh>(file);
     const auto [V0, F0] = m.to_arrays();
     const auto topo0 = diagnose_topology(V0.size(), F0);
     std::mt19937 rng(seed);
@@ -41,15 +42,23 @@ sequence_stats run_sequence(const std::string& file, unsigned seed, int n, int f
         auto t = random_edge(m, rng);
         REQUIRE(t);
         if (rng() % 2) t = m.switch_vertex(*t);
-        std::optional<tri_mesh<>> copy;
+        std::optional<Mesh> copy;
         if (compare_rollback) copy = m;
         const int kind = static_cast<int>(rng() % 4);
         std::optional<op_result<tri_tuple>> r;
         switch (kind) {
-        case 0: r = split_edge(m, *t, spec); break;
-        case 1: r = collapse_edge(m, *t, spec); break;
-        case 2: r = swap_edge(m, *t, spec); break;
-        default: r = smooth_vertex(m, *t, spec); break;
+        case 0:
+            r = split_edge(m, *t, spec);
+            break;
+        case 1:
+            r = collapse_edge(m, *t, spec);
+            break;
+        case 2:
+            r = swap_edge(m, *t, spec);
+            break;
+        default:
+            r = smooth_vertex(m, *t, spec);
+            break;
         }
         if (r) {
             ++st.accepted;
@@ -57,7 +66,9 @@ sequence_stats run_sequence(const std::string& file, unsigned seed, int n, int f
             REQUIRE_MESSAGE(!e, "after op " << i << " kind " << kind << ": " << *e);
         } else {
             ++st.refused;
-            if (copy) REQUIRE_MESSAGE(identical(*copy, m), "op " << i << " kind " << kind << " did not roll back exactly");
+            if (copy)
+                REQUIRE_MESSAGE(identical(*copy, m),
+                                "op " << i << " kind " << kind << " did not roll back exactly");
         }
         if ((i + 1) % full_every == 0 || i + 1 == n) {
             const auto e = find_inconsistency(m);
@@ -74,32 +85,32 @@ sequence_stats run_sequence(const std::string& file, unsigned seed, int n, int f
 
 } // namespace
 
-TEST_CASE("random operations keep bunny (open, 5 holes) valid") {
-    const auto st = run_sequence("bunny.obj", 1, 4000, 1000, 0.0, false);
+TEST_CASE_TEMPLATE("random operations keep bunny (open, 5 holes) valid", Mesh, IDAS_TRI_MESHES) {
+    const auto st = run_sequence<Mesh>("bunny.obj", 1, 4000, 1000, 0.0, false);
     CHECK(st.accepted > 2000);
 }
 
-TEST_CASE("random operations keep armadillo (closed) valid") {
-    const auto st = run_sequence("armadillo.obj", 2, 4000, 1000, 0.0, false);
+TEST_CASE_TEMPLATE("random operations keep armadillo (closed) valid", Mesh, IDAS_TRI_MESHES) {
+    const auto st = run_sequence<Mesh>("armadillo.obj", 2, 4000, 1000, 0.0, false);
     CHECK(st.accepted > 2000);
 }
 
-TEST_CASE("random operations keep blub valid, and 100071 (genus 3)") {
-    CHECK(run_sequence("blub.obj", 3, 4000, 500, 0.0, false).accepted > 2000);
-    CHECK(run_sequence("100071_sf.obj", 4, 3000, 500, 0.0, false).accepted > 1000);
+TEST_CASE_TEMPLATE("random operations keep blub valid, and 100071 (genus 3)", Mesh, IDAS_TRI_MESHES) {
+    CHECK(run_sequence<Mesh>("blub.obj", 3, 4000, 500, 0.0, false).accepted > 2000);
+    CHECK(run_sequence<Mesh>("100071_sf.obj", 4, 3000, 500, 0.0, false).accepted > 1000);
 }
 
-TEST_CASE("forced failures roll back bit for bit") {
+TEST_CASE_TEMPLATE("forced failures roll back bit for bit", Mesh, IDAS_TRI_MESHES) {
     // Half of all after() calls fail: the copies compare the whole mesh and attributes.
-    const auto st = run_sequence("bunny.off", 5, 600, 200, 0.5, true);
+    const auto st = run_sequence<Mesh>("bunny.off", 5, 600, 200, 0.5, true);
     CHECK(st.refused > 200);
     CHECK(st.accepted > 100);
-    const auto st2 = run_sequence("blub.obj", 6, 300, 100, 0.5, true);
+    const auto st2 = run_sequence<Mesh>("blub.obj", 6, 300, 100, 0.5, true);
     CHECK(st2.refused > 100);
 }
 
-TEST_CASE("stale tuples are detected after random edits") {
-    auto m = idas::test::load("bunny.off");
+TEST_CASE_TEMPLATE("stale tuples are detected after random edits", Mesh, IDAS_TRI_MESHES) {
+    auto m = idas::test::load<Mesh>("bunny.off");
     std::mt19937 rng(7);
     midpoint_spec spec;
     spec.attach(m);
@@ -107,8 +118,10 @@ TEST_CASE("stale tuples are detected after random edits") {
     int stale = 0;
     for (int i = 0; i < 500; ++i) {
         auto t = random_edge(m, rng);
-        if (rng() % 2) split_edge(m, *t, spec);
-        else collapse_edge(m, *t, spec);
+        if (rng() % 2)
+            split_edge(m, *t, spec);
+        else
+            collapse_edge(m, *t, spec);
     }
     for (const auto& t : all) {
         if (!m.is_valid(t)) {

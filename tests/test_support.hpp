@@ -10,10 +10,22 @@
 #include <random>
 #include <string>
 
+// The conformance suite: every triangle-mesh test is a TEST_CASE_TEMPLATE over these
+// meshes, one per connectivity backend, so each runs on both (named "...<indexed>" and
+// "...<corner_table>").
+#define IDAS_TRI_MESHES                                                                            \
+    idas::tri_mesh<idas::backend::indexed_tri>, idas::tri_mesh<idas::backend::corner_table_tri>
+TYPE_TO_STRING_AS("indexed", idas::tri_mesh<idas::backend::indexed_tri>);
+TYPE_TO_STRING_AS("corner_table", idas::tri_mesh<idas::backend::corner_table_tri>);
+
 namespace idas::test {
 
-inline std::string data(const std::string& name) { return std::string(IDAS_DATA_DIR) + "/" + name; }
-inline std::string tmp(const std::string& name) { return std::string(IDAS_TEST_TMP) + "/" + name; }
+inline std::string data(const std::string& name) {
+    return std::string(IDAS_DATA_DIR) + "/" + name;
+}
+inline std::string tmp(const std::string& name) {
+    return std::string(IDAS_TEST_TMP) + "/" + name;
+}
 
 template <class Mesh = tri_mesh<>>
 Mesh load(const std::string& name) {
@@ -73,8 +85,10 @@ struct midpoint_spec {
         return (m.position(a) + m.position(b)) * 0.5;
     }
     template <class Mesh, class Op>
-        requires(std::is_same_v<Op, op::split_edge> || std::is_same_v<Op, op::collapse_edge>)
-    bool after(Op, Mesh& m, const op_result<tri_tuple>& r, vec3& new_position) {
+    requires(std::is_same_v<Op, op::split_edge> ||
+             std::is_same_v<Op, op::collapse_edge>) bool after(Op, Mesh& m,
+                                                               const op_result<tri_tuple>& r,
+                                                               vec3& new_position) {
         m.positions().set(r.anchor.vid, new_position);
         write_cells(m, r);
         return !fail_now();

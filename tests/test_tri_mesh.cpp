@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <set>
+#include <tuple>
 
 using namespace idas;
 using idas::test::midpoint_spec;
@@ -10,7 +11,8 @@ using idas::test::midpoint_spec;
 namespace {
 
 // A 3x3 vertex grid, 8 triangles, consistently oriented, open.
-tri_mesh<> grid() {
+template <class Mesh>
+Mesh grid() {
     std::vector<vec3> V;
     for (int y = 0; y < 3; ++y)
         for (int x = 0; x < 3; ++x) V.push_back({double(x), double(y), 0});
@@ -25,19 +27,23 @@ tri_mesh<> grid() {
 }
 
 // Regular octahedron: closed, every vertex of valence 4.
-tri_mesh<> octahedron() {
+template <class Mesh>
+Mesh octahedron() {
     std::vector<vec3> V = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
     std::vector<tri_indices> F = {{0, 2, 4}, {2, 1, 4}, {1, 3, 4}, {3, 0, 4},
                                   {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5}};
     return {V, F};
 }
 
-long euler(const tri_mesh<>& m) { return long(m.n_vertices()) - long(m.n_edges()) + long(m.n_faces()); }
+template <class Mesh>
+long euler(const Mesh& m) {
+    return long(m.n_vertices()) - long(m.n_edges()) + long(m.n_faces());
+}
 
 } // namespace
 
-TEST_CASE("tuple navigation obeys the switch identities") {
-    auto m = grid();
+TEST_CASE_TEMPLATE("tuple navigation obeys the switch identities", Mesh, IDAS_TRI_MESHES) {
+    auto m = grid<Mesh>();
     CHECK(m.n_vertices() == 9);
     CHECK(m.n_faces() == 8);
     CHECK(m.n_edges() == 16);
@@ -75,8 +81,8 @@ TEST_CASE("tuple navigation obeys the switch identities") {
     CHECK(ids.size() == 16);
 }
 
-TEST_CASE("operations make earlier tuples stale and return the new faces") {
-    auto m = octahedron();
+TEST_CASE_TEMPLATE("operations make earlier tuples stale and return the new faces", Mesh, IDAS_TRI_MESHES) {
+    auto m = octahedron<Mesh>();
     const auto t = m.tuple_from_face(0);
     const auto other = m.tuple_from_face(6); // far from edge 0
     auto r = split_edge(m, t);
@@ -99,8 +105,8 @@ TEST_CASE("operations make earlier tuples stale and return the new faces") {
     CHECK_FALSE(find_inconsistency(m).has_value());
 }
 
-TEST_CASE("link condition refuses collapses that change topology") {
-    auto m = octahedron();
+TEST_CASE_TEMPLATE("link condition refuses collapses that change topology", Mesh, IDAS_TRI_MESHES) {
+    auto m = octahedron<Mesh>();
     // Every octahedron edge collapse would create a double face pair (the link of the
     // edge's endpoints share four vertices); all must be refused... except none pass.
     int accepted = 0;
@@ -118,16 +124,16 @@ TEST_CASE("link condition refuses collapses that change topology") {
     // A tetrahedron: every collapse would leave a degenerate double triangle.
     std::vector<vec3> V = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
     std::vector<tri_indices> F = {{0, 2, 1}, {0, 1, 3}, {1, 2, 3}, {0, 3, 2}};
-    tri_mesh<> tet(V, F);
+    Mesh tet(V, F);
     for (const auto& e : tet.get_edges()) CHECK_FALSE(collapse_edge(tet, e));
 
     // A lone triangle: no collapse is allowed.
-    tri_mesh<> tri({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}, {{0, 1, 2}});
+    Mesh tri({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}, {{0, 1, 2}});
     for (const auto& e : tri.get_edges()) CHECK_FALSE(collapse_edge(tri, e));
 
     // Grid: an interior edge joining two boundary vertices must not be collapsed
     // (it would pinch the boundary); the edge (0,4) joins corner 0 and the centre.
-    auto g = grid();
+    auto g = grid<Mesh>();
     int refused = 0;
     for (const auto& e : g.get_edges()) {
         const auto [a, b] = g.edge_vertices(e);
@@ -139,17 +145,17 @@ TEST_CASE("link condition refuses collapses that change topology") {
     CHECK(refused > 0);
 }
 
-TEST_CASE("swap refuses boundary edges and existing diagonals") {
-    auto g = grid();
+TEST_CASE_TEMPLATE("swap refuses boundary edges and existing diagonals", Mesh, IDAS_TRI_MESHES) {
+    auto g = grid<Mesh>();
     for (const auto& e : g.get_edges())
         if (g.is_boundary_edge(e)) CHECK_FALSE(swap_edge(g, e));
     // In a tetrahedron the two vertices opposite any edge are already joined.
     std::vector<vec3> V = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
     std::vector<tri_indices> F = {{0, 2, 1}, {0, 1, 3}, {1, 2, 3}, {0, 3, 2}};
-    tri_mesh<> tet(V, F);
+    Mesh tet(V, F);
     for (const auto& e : tet.get_edges()) CHECK_FALSE(swap_edge(tet, e));
     // In an octahedron they never are: every swap is legal and keeps a valid sphere.
-    auto m = octahedron();
+    auto m = octahedron<Mesh>();
     for (const auto& e : m.get_edges()) {
         auto copy = m;
         REQUIRE(swap_edge(copy, e));
@@ -168,21 +174,23 @@ struct no_new_vertices_above_plane {
 };
 } // namespace
 
-TEST_CASE("a user invariant vetoes operations and they roll back exactly") {
+TEST_CASE_TEMPLATE("a user invariant vetoes operations and they roll back exactly", Mesh, IDAS_TRI_MESHES) {
     static_assert(invariant<no_new_vertices_above_plane>);
-    static_assert(invariant_for<no_new_vertices_above_plane, op::split_edge, tri_mesh<>>);
+    static_assert(invariant_for<no_new_vertices_above_plane, op::split_edge, Mesh>);
     struct spec {
-        std::optional<vec3> before(op::split_edge, const tri_mesh<>& m, const tri_tuple& t) {
+        std::optional<vec3> before(op::split_edge, const Mesh& m, const tri_tuple& t) {
             const auto [a, b] = m.edge_vertices(t);
             return (m.position(a) + m.position(b)) * 0.5;
         }
-        bool after(op::split_edge, tri_mesh<>& m, const op_result<tri_tuple>& r, vec3& p) {
+        bool after(op::split_edge, Mesh& m, const op_result<tri_tuple>& r, vec3& p) {
             m.positions().set(r.anchor.vid, p);
             return true;
         }
-        auto invariants() const { return invariant_set<no_new_vertices_above_plane, no_normal_flip>{}; }
+        auto invariants() const {
+            return invariant_set<no_new_vertices_above_plane, no_normal_flip>{};
+        }
     } s;
-    auto m = octahedron();
+    auto m = octahedron<Mesh>();
     int accepted = 0, refused = 0;
     std::vector<std::pair<index_t, index_t>> edges;
     for (const auto& e : m.get_edges()) edges.push_back(m.edge_vertices(e));
@@ -200,7 +208,8 @@ TEST_CASE("a user invariant vetoes operations and they roll back exactly") {
         const bool high = (m.position(a).z + m.position(b).z) / 2 > 0.25;
         auto r = split_edge(m, e, s);
         CHECK(bool(r) == !high);
-        if (r) ++accepted;
+        if (r)
+            ++accepted;
         else {
             ++refused;
             CHECK(identical(before, m));
@@ -211,11 +220,11 @@ TEST_CASE("a user invariant vetoes operations and they roll back exactly") {
     CHECK_FALSE(find_inconsistency(m).has_value());
 }
 
-TEST_CASE("non-manifold input is refused with a message that says where") {
+TEST_CASE_TEMPLATE("non-manifold input is refused with a message that says where", Mesh, IDAS_TRI_MESHES) {
     auto expect_refusal = [](const std::string& file, const std::string& what) {
         const auto s = io::read_surface(idas::test::data(file));
         try {
-            tri_mesh<> m(s.vertices, s.faces);
+            Mesh m(s.vertices, s.faces);
             FAIL("accepted non-manifold mesh " << file);
         } catch (const input_error& e) {
             const std::string msg = e.what();
@@ -236,27 +245,127 @@ TEST_CASE("non-manifold input is refused with a message that says where") {
     const auto q = io::read_surface(idas::test::data("edge_with_four_triangles.off"));
     CHECK(diagnose_topology(q.vertices.size(), q.faces).nonmanifold_edges == 1);
 
-    CHECK_THROWS_AS(tri_mesh<>({{0, 0, 0}, {1, 0, 0}, {0, std::nan(""), 0}}, {{0, 1, 2}}), input_error);
-    CHECK_THROWS_AS(tri_mesh<>({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}, {{0, 1, 7}}), input_error);
+    CHECK_THROWS_AS(Mesh({{0, 0, 0}, {1, 0, 0}, {0, std::nan(""), 0}}, {{0, 1, 2}}),
+                    input_error);
+    CHECK_THROWS_AS(Mesh({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}, {{0, 1, 7}}), input_error);
 }
 
-TEST_CASE("real meshes load with the expected topology") {
+TEST_CASE_TEMPLATE("real meshes load with the expected topology", Mesh, IDAS_TRI_MESHES) {
     struct expected {
         const char* file;
         std::size_t v, f;
         long chi;
         std::size_t loops;
     };
-    for (auto e : {expected{"bunny.obj", 35947, 69451, -3, 5}, expected{"armadillo.obj", 43243, 86482, 2, 0},
-                   expected{"blub.obj", 7106, 14208, 2, 0}, expected{"100071_sf.obj", 5516, 11040, -4, 0}}) {
+    for (auto e :
+         {expected{"bunny.obj", 35947, 69451, -3, 5}, expected{"armadillo.obj", 43243, 86482, 2, 0},
+          expected{"blub.obj", 7106, 14208, 2, 0}, expected{"100071_sf.obj", 5516, 11040, -4, 0}}) {
         CAPTURE(e.file);
         const auto s = io::read_surface(idas::test::data(e.file));
         const auto r = diagnose_topology(s.vertices.size(), s.faces);
         CHECK(r.editable());
         CHECK(r.euler_characteristic == e.chi);
         CHECK(r.boundary_loops == e.loops);
-        tri_mesh<> m(s.vertices, s.faces);
+        Mesh m(s.vertices, s.faces);
         CHECK(m.n_vertices() == e.v);
         CHECK(m.n_faces() == e.f);
     }
+}
+
+namespace {
+/// Every (face, edge, face across) of a mesh, faces named by their vertices (rotated to
+/// start at the smallest), so meshes can be compared whatever their slot numbers.
+template <class Mesh>
+std::set<std::tuple<tri_indices, index_t, index_t, tri_indices>> adjacency(const Mesh& m) {
+    auto key = [&](index_t f) {
+        tri_indices v = m.face_vertices(f);
+        std::rotate(v.begin(), std::min_element(v.begin(), v.end()), v.end());
+        return v;
+    };
+    std::set<std::tuple<tri_indices, index_t, index_t, tri_indices>> out;
+    m.for_each_face([&](const tri_tuple& t) {
+        auto e = t;
+        for (int k = 0; k < 3; ++k, e = m.switch_edge(m.switch_vertex(e))) {
+            const auto [a, b] = m.edge_vertices(e);
+            const auto g = m.switch_face(e);
+            out.insert({key(e.fid), a, b,
+                        g ? key(g->fid) : tri_indices{invalid_index, invalid_index, invalid_index}});
+        }
+    });
+    return out;
+}
+} // namespace
+
+TEST_CASE_TEMPLATE("raw edits keep neighbours right, also across boundaries made earlier", Mesh,
+                   IDAS_TRI_MESHES) {
+    // Removing faces and adding them back, in the same edit or in later ones (which then
+    // glue the new face onto boundary edges that existed before they began), must give
+    // the original neighbours back; and every edit rolls back bit for bit.
+    typename Mesh::undo_log log;
+    auto check = [](const Mesh& m) {
+        const auto e = find_inconsistency(m);
+        CHECK_MESSAGE(!e, *e);
+    };
+    auto commit = [&] { log.resize(0); };
+
+    const auto closed = octahedron<Mesh>();
+    const auto want = adjacency(closed);
+    for (index_t f = 0; f < closed.face_slots(); ++f) {
+        CAPTURE(f);
+        auto m = closed;
+        const tri_indices fv = m.face_vertices(f);
+        // One edit: remove and add back.
+        m.remove_face(f, log);
+        m.add_face(fv, log);
+        check(m);
+        CHECK(adjacency(m) == want);
+        m.rollback(log, 0);
+        CHECK(identical(closed, m));
+        // Two edits: the second closes a hole that the first one left.
+        m.remove_face(f, log);
+        commit();
+        check(m);
+        CHECK(m.is_boundary_vertex(fv[0]));
+        const auto holed = m;
+        m.add_face(fv, log);
+        check(m);
+        CHECK(adjacency(m) == want);
+        CHECK_FALSE(m.is_boundary_vertex(fv[0]));
+        m.rollback(log, 0);
+        CHECK(identical(holed, m));
+        m.add_face(fv, log);
+        commit();
+        check(m);
+        CHECK(adjacency(m) == want);
+    }
+
+    // An open mesh: take out two neighbouring faces far from the boundary, then put them
+    // back one edit at a time (the first glues onto two old boundary edges and leaves a
+    // new one, the second closes everything).
+    auto m = idas::test::load<Mesh>("bunny.off");
+    const auto bunny = adjacency(m);
+    int holes = 0;
+    for (index_t f = 0; f < m.face_slots() && holes < 40; f += 97) {
+        const tri_tuple t = m.tuple_from_edge(f, 0);
+        const auto g = m.switch_face(t);
+        if (!g) continue;
+        bool interior = true;
+        for (index_t x : {f, g->fid})
+            for (index_t v : m.face_vertices(x)) interior &= !m.is_boundary_vertex(v);
+        if (!interior) continue;
+        ++holes;
+        const tri_indices a = m.face_vertices(f), b = m.face_vertices(g->fid);
+        m.remove_face(f, log);
+        m.remove_face(g->fid, log);
+        commit();
+        check(m);
+        m.add_face(b, log);
+        commit();
+        check(m);
+        m.add_face(a, log);
+        commit();
+        check(m);
+    }
+    CHECK(holes >= 20);
+    CHECK(adjacency(m) == bunny);
 }

@@ -11,6 +11,7 @@ int main(int argc, char** argv) {
     const auto faces_before = m.n_faces();
     for (const auto& e : m.get_edges()) (void)idas::split_edge(m, e);
     const bool ok = !idas::find_inconsistency(m) && m.n_faces() > faces_before;
-    std::printf("consumer: %zu -> %zu faces, %s\n", faces_before, m.n_faces(), ok ? "valid" : "INVALID");
+    std::printf("consumer: %zu -> %zu faces, %s\n", faces_before, m.n_faces(),
+                ok ? "valid" : "INVALID");
     return ok ? 0 : 1;
 }

@@ -16,22 +16,23 @@ struct topology {
     long chi;
     std::size_t loops, components;
 };
-topology topology_of(const tri_mesh<>& m) {
+template <class Mesh>
+topology topology_of(const Mesh& m) {
     const auto [V, F] = m.to_arrays();
     const auto r = diagnose_topology(V.size(), F);
     return {r.euler_characteristic, r.boundary_loops, r.components};
 }
 
-template <class Algorithm, class Spec>
-run_report decimate(tri_mesh<>& m, Spec spec, double ratio, unsigned threads, unsigned parts = 1) {
+template <class Algorithm, class Mesh, class Spec>
+run_report decimate(Mesh& m, Spec spec, double ratio, unsigned threads, unsigned parts = 1) {
     spec.target_faces = static_cast<std::int64_t>(double(m.n_faces()) * ratio);
     return Algorithm::run(m, spec, {.threads = threads, .parts_per_thread = parts});
 }
 
-template <class Algorithm, class Spec>
+template <class Mesh, class Algorithm, class Spec>
 void check_serial(const char* file, double ratio) {
     CAPTURE(file);
-    auto m = idas::test::load(file);
+    auto m = idas::test::load<Mesh>(file);
     const auto before = topology_of(m);
     const auto target = static_cast<std::int64_t>(double(m.n_faces()) * ratio);
     const auto report = decimate<Algorithm>(m, Spec{}, ratio, 1);
@@ -50,38 +51,41 @@ void check_serial(const char* file, double ratio) {
 
 } // namespace
 
-TEST_CASE("serial decimation hits the target exactly and keeps topology") {
-    check_serial<shortest_edge_collapse<>, shortest_edge_collapse_spec<>>("bunny.obj", 0.1);
-    check_serial<shortest_edge_collapse<false>, shortest_edge_collapse_spec<false>>("armadillo.obj", 0.05);
-    check_serial<qslim<>, qslim_spec>("bunny.obj", 0.1);
-    check_serial<qslim<>, qslim_spec>("100071_sf.obj", 0.2);
+TEST_CASE_TEMPLATE("serial decimation hits the target exactly and keeps topology", Mesh, IDAS_TRI_MESHES) {
+    check_serial<Mesh, shortest_edge_collapse<true, Mesh>, shortest_edge_collapse_spec<>>("bunny.obj",
+                                                                                         0.1);
+    check_serial<Mesh, shortest_edge_collapse<false, Mesh>, shortest_edge_collapse_spec<false>>(
+        "armadillo.obj", 0.05);
+    check_serial<Mesh, qslim<Mesh>, qslim_spec>("bunny.obj", 0.1);
+    check_serial<Mesh, qslim<Mesh>, qslim_spec>("100071_sf.obj", 0.2);
 }
 
-TEST_CASE("serial decimation is deterministic") {
-    auto a = idas::test::load("blub.obj"), b = a;
-    decimate<qslim<>>(a, qslim_spec{}, 0.2, 1);
-    decimate<qslim<>>(b, qslim_spec{}, 0.2, 1);
+TEST_CASE_TEMPLATE("serial decimation is deterministic", Mesh, IDAS_TRI_MESHES) {
+    auto a = idas::test::load<Mesh>("blub.obj"), b = a;
+    decimate<qslim<Mesh>>(a, qslim_spec{}, 0.2, 1);
+    decimate<qslim<Mesh>>(b, qslim_spec{}, 0.2, 1);
     CHECK(a.to_arrays() == b.to_arrays());
-    auto c = idas::test::load("blub.obj"), d = c;
-    decimate<shortest_edge_collapse<>>(c, shortest_edge_collapse_spec<>{}, 0.2, 1);
-    decimate<shortest_edge_collapse<>>(d, shortest_edge_collapse_spec<>{}, 0.2, 1);
+    auto c = idas::test::load<Mesh>("blub.obj"), d = c;
+    decimate<shortest_edge_collapse<true, Mesh>>(c, shortest_edge_collapse_spec<>{}, 0.2, 1);
+    decimate<shortest_edge_collapse<true, Mesh>>(d, shortest_edge_collapse_spec<>{}, 0.2, 1);
     CHECK(c.to_arrays() == d.to_arrays());
 }
 
-TEST_CASE("QSlim stays closer to the input than midpoint collapse") {
+TEST_CASE_TEMPLATE("QSlim stays closer to the input than midpoint collapse", Mesh, IDAS_TRI_MESHES) {
     // Mean squared distance from input vertices to the output surface: what QSlim's
     // quadrics approximate, so at the same face count it must beat midpoints clearly.
-    auto input = idas::test::load("bunny.off");
+    auto input = idas::test::load<Mesh>("bunny.off");
     auto q = input, s = input;
-    decimate<qslim<>>(q, qslim_spec{}, 0.1, 1);
-    decimate<shortest_edge_collapse<>>(s, shortest_edge_collapse_spec<>{}, 0.1, 1);
-    auto error_of = [&](const tri_mesh<>& out) {
+    decimate<qslim<Mesh>>(q, qslim_spec{}, 0.1, 1);
+    decimate<shortest_edge_collapse<true, Mesh>>(s, shortest_edge_collapse_spec<>{}, 0.1, 1);
+    auto error_of = [&](const Mesh& out) {
         const auto [V, F] = out.to_arrays();
         double sum = 0;
         for (index_t v = 0; v < input.vertex_slots(); v += 3) {
             double best = 1e300;
             for (const auto& f : F)
-                best = std::min(best, point_triangle_squared_distance(input.position(v), V[f[0]], V[f[1]], V[f[2]]));
+                best = std::min(best, point_triangle_squared_distance(input.position(v), V[f[0]],
+                                                                      V[f[1]], V[f[2]]));
             sum += best;
         }
         return sum;
@@ -90,17 +94,17 @@ TEST_CASE("QSlim stays closer to the input than midpoint collapse") {
     CHECK(eq < 0.8 * es);
 }
 
-TEST_CASE("parallel decimation under contention stays valid and near the target") {
+TEST_CASE_TEMPLATE("parallel decimation under contention stays valid and near the target", Mesh, IDAS_TRI_MESHES) {
     // 8 workers on 2 cores, several partitionings: every result is a valid manifold with
     // the input's topology, within 1% of the target.
     for (unsigned parts : {1u, 2u, 4u}) {
         for (unsigned threads : {2u, 8u}) {
             CAPTURE(parts);
             CAPTURE(threads);
-            auto m = idas::test::load("bunny.off");
+            auto m = idas::test::load<Mesh>("bunny.off");
             const auto before = topology_of(m);
             const auto n = m.n_faces();
-            const auto report = decimate<qslim<>>(m, qslim_spec{}, 0.2, threads, parts);
+            const auto report = decimate<qslim<Mesh>>(m, qslim_spec{}, 0.2, threads, parts);
             const double target = 0.2 * double(n);
             // Overshoot is bounded by the operations in flight: two faces per worker.
             CHECK(std::abs(double(m.n_faces()) - target) <= 2.0 * threads * parts + 1);
@@ -114,17 +118,17 @@ TEST_CASE("parallel decimation under contention stays valid and near the target"
     }
 }
 
-TEST_CASE("parallel runs lose no operation") {
+TEST_CASE_TEMPLATE("parallel runs lose no operation", Mesh, IDAS_TRI_MESHES) {
     // Without a face target the schedule runs until its queues are empty. Every entry
     // pushed (initially, by renew, or again after losing a lock race) must be popped
     // exactly once (or be purged as stale in a sweep) and end as stale, skipped, attempted
     // or re-pushed: nothing is dropped.
     for (unsigned threads : {1u, 2u, 8u}) {
         CAPTURE(threads);
-        auto m = idas::test::load("blub.obj");
+        auto m = idas::test::load<Mesh>("blub.obj");
         shortest_edge_collapse_spec<> spec;
         spec.target_faces = 0;
-        const auto r = shortest_edge_collapse<>::run(m, spec, {.threads = threads, .max_retry = 2});
+        const auto r = shortest_edge_collapse<true, Mesh>::run(m, spec, {.threads = threads, .max_retry = 2});
         CHECK(r.succeeded > 1000);
         CHECK(r.pushed == r.popped + r.purged);
         CHECK(r.popped == r.stale + r.skipped + r.attempted + r.lock_failures);
@@ -133,14 +137,17 @@ TEST_CASE("parallel runs lose no operation") {
     }
 }
 
-TEST_CASE("METIS and Morton partitions both give valid parallel results") {
-    auto a = idas::test::load("bunny.off"), b = a;
+TEST_CASE_TEMPLATE("METIS and Morton partitions both give valid parallel results", Mesh, IDAS_TRI_MESHES) {
+    auto a = idas::test::load<Mesh>("bunny.off"), b = a;
     qslim_spec s1, s2;
     s1.target_faces = s2.target_faces = std::int64_t(a.n_faces() / 4);
-    qslim<tri_mesh<>, lock::vertex_try_lock, queue::dary_heap<4>, partition::metis>::run(a, s1, {.threads = 4});
-    qslim<tri_mesh<>, lock::vertex_try_lock, queue::binary_heap, partition::morton>::run(b, s2, {.threads = 4});
+    qslim<Mesh, lock::vertex_try_lock, queue::dary_heap<4>, partition::metis>::run(
+        a, s1, {.threads = 4});
+    qslim<Mesh, lock::vertex_try_lock, queue::binary_heap, partition::morton>::run(
+        b, s2, {.threads = 4});
     CHECK_FALSE(find_inconsistency(a).has_value());
     CHECK_FALSE(find_inconsistency(b).has_value());
     for (const auto* m : {&a, &b})
-        CHECK(std::abs(double(m->n_faces()) - double(s1.target_faces)) <= 0.01 * double(s1.target_faces) + 8);
+        CHECK(std::abs(double(m->n_faces()) - double(s1.target_faces)) <=
+              0.01 * double(s1.target_faces) + 8);
 }

@@ -95,9 +95,12 @@ TEST_CASE("remeshing keeps boundaries in place and refines towards the target") 
     m.for_each_vertex([&](const tri_tuple& t) {
         if (m.is_boundary_vertex(t.vid)) boundary_after.push_back(m.position(t.vid));
     });
-    auto key = [](const vec3& a, const vec3& b) { return std::tie(a.x, a.y, a.z) < std::tie(b.x, b.y, b.z); };
+    auto key = [](const vec3& a, const vec3& b) {
+        return std::tie(a.x, a.y, a.z) < std::tie(b.x, b.y, b.z);
+    };
     std::sort(boundary_after.begin(), boundary_after.end(), key);
-    for (const auto& p : boundary_before) CHECK(std::binary_search(boundary_after.begin(), boundary_after.end(), p, key));
+    for (const auto& p : boundary_before)
+        CHECK(std::binary_search(boundary_after.begin(), boundary_after.end(), p, key));
 }
 
 TEST_CASE("remeshing stays close to the input surface") {

@@ -14,7 +14,7 @@ template <class Op, class Mesh, class Push>
 void push_star_edges(const Mesh& m, const op_result<typename Mesh::tuple>& r, Push& push) {
     const bool open_fan = m.is_boundary_vertex(r.anchor.vid);
     for (const auto& spoke : r.cells) {
-        push(Op{}, spoke); // (a, next)
+        push(Op{}, spoke);                                 // (a, next)
         push(Op{}, m.switch_edge(m.switch_vertex(spoke))); // the rim edge opposite a
         // In an open fan one spoke (prev, a) is on the boundary and in no other cell.
         if (open_fan) {
@@ -29,7 +29,9 @@ struct face_target {
     std::int64_t target_faces = 0;
     bool stop(const progress& p) const noexcept { return p.faces <= target_faces; }
     /// A collapse removes two faces (one on the boundary).
-    std::int64_t remaining(const progress& p) const noexcept { return (p.faces - target_faces) / 2; }
+    std::int64_t remaining(const progress& p) const noexcept {
+        return (p.faces - target_faces) / 2;
+    }
 };
 
 } // namespace idas::algorithms

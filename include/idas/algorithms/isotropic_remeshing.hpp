@@ -32,11 +32,11 @@
 namespace idas::algorithms {
 
 struct remeshing_options {
-    double target_length = 0;       // absolute edge length L
+    double target_length = 0; // absolute edge length L
     unsigned iterations = 5;
-    bool preserve_boundary = true;  // boundary vertices stay where they are
-    double feature_angle_deg = -1;  // dihedral angle above which an edge is sharp; <0: none
-    bool project = true;            // project smoothed vertices back onto the input
+    bool preserve_boundary = true; // boundary vertices stay where they are
+    double feature_angle_deg = -1; // dihedral angle above which an edge is sharp; <0: none
+    bool project = true;           // project smoothed vertices back onto the input
 };
 
 /// What the four phase specs share: L, the frozen flags, the input surface for projection.
@@ -90,8 +90,11 @@ template <class... Extra>
 struct with_invariants {
     std::tuple<Extra...> extra;
     auto invariants() const {
-        return std::apply([](const Extra&... e) { return invariant_set<no_normal_flip, Extra...>(no_normal_flip{}, e...); },
-                          extra);
+        return std::apply(
+            [](const Extra&... e) {
+                return invariant_set<no_normal_flip, Extra...>(no_normal_flip{}, e...);
+            },
+            extra);
     }
 };
 template <>
@@ -131,7 +134,8 @@ struct remesh_split_spec : detail::with_invariants<Extra...> {
         return -squared_norm(m.position(a) - m.position(b)); // longest first
     }
     template <class Mesh>
-    std::optional<cache> before(op::split_edge, const Mesh& m, const typename Mesh::tuple& t) const {
+    std::optional<cache> before(op::split_edge, const Mesh& m,
+                                const typename Mesh::tuple& t) const {
         const auto [a, b] = m.edge_vertices(t);
         const double hi = 4.0 / 3.0 * s->L;
         if (!(squared_norm(m.position(a) - m.position(b)) > hi * hi)) return std::nullopt;
@@ -141,10 +145,12 @@ struct remesh_split_spec : detail::with_invariants<Extra...> {
         const bool on_feature = fe[a] && fe[b];
         const bool boundary_edge = m.is_boundary_edge(t);
         const bool keep = boundary_edge && fr[a] && fr[b];
-        return cache{(m.position(a) + m.position(b)) * 0.5, on_feature || keep, on_feature, boundary_edge};
+        return cache{(m.position(a) + m.position(b)) * 0.5, on_feature || keep, on_feature,
+                     boundary_edge};
     }
     template <class Mesh>
-    bool after(op::split_edge, Mesh& m, const op_result<typename Mesh::tuple>& r, const cache& c) const {
+    bool after(op::split_edge, Mesh& m, const op_result<typename Mesh::tuple>& r,
+               const cache& c) const {
         const index_t v = r.anchor.vid;
         m.positions().set(v, c.position);
         m.attribute(s->frozen).set(v, c.frozen);
@@ -153,7 +159,8 @@ struct remesh_split_spec : detail::with_invariants<Extra...> {
         return true;
     }
     template <class Mesh, class Push>
-    void renew(op::split_edge, const Mesh& m, const op_result<typename Mesh::tuple>& r, Push& push) const {
+    void renew(op::split_edge, const Mesh& m, const op_result<typename Mesh::tuple>& r,
+               Push& push) const {
         auto candidates = [&](op::split_edge o, const typename Mesh::tuple& t) {
             if (too_long(m, t)) push(o, t); // halves still too long are split again
         };
@@ -184,32 +191,38 @@ struct remesh_collapse_spec : detail::with_invariants<Extra...> {
         return squared_norm(m.position(a) - m.position(b)); // shortest first
     }
     template <class Mesh>
-    std::optional<vec3> before(op::collapse_edge, const Mesh& m, const typename Mesh::tuple& t) const {
+    std::optional<vec3> before(op::collapse_edge, const Mesh& m,
+                               const typename Mesh::tuple& t) const {
         const auto [a, b] = m.edge_vertices(t);
         const double lo = 0.8 * s->L, hi = 4.0 / 3.0 * s->L;
         if (!(squared_norm(m.position(a) - m.position(b)) < lo * lo)) return std::nullopt;
         const auto fr = m.attribute(s->frozen), bd = m.attribute(s->boundary);
         if (fr[b]) return std::nullopt; // a frozen vertex never vanishes
         vec3 p = fr[a] ? m.position(a) : (m.position(a) + m.position(b)) * 0.5;
-        if (!fr[a] && bd[a] != bd[b]) p = m.position(bd[a] ? a : b); // keep an open boundary in place
+        if (!fr[a] && bd[a] != bd[b])
+            p = m.position(bd[a] ? a : b); // keep an open boundary in place
         // Refuse if the merged vertex would get an edge longer than 4/3 L.
         for (index_t v : {a, b})
             for (index_t f : m.vertex_faces(v))
                 for (index_t w : m.face_vertices(f))
-                    if (w != a && w != b && squared_norm(m.position(w) - p) > hi * hi) return std::nullopt;
+                    if (w != a && w != b && squared_norm(m.position(w) - p) > hi * hi)
+                        return std::nullopt;
         return p;
     }
     template <class Mesh>
-    bool after(op::collapse_edge, Mesh& m, const op_result<typename Mesh::tuple>& r, const vec3& p) const {
+    bool after(op::collapse_edge, Mesh& m, const op_result<typename Mesh::tuple>& r,
+               const vec3& p) const {
         m.positions().set(r.anchor.vid, p);
         // The survivor took over b's faces: it is on the boundary if any of them is open.
         bool open = false;
-        for (const auto& c : r.cells) open = open || m.is_boundary_edge(c) || m.is_boundary_edge(m.switch_edge(c));
+        for (const auto& c : r.cells)
+            open = open || m.is_boundary_edge(c) || m.is_boundary_edge(m.switch_edge(c));
         m.attribute(s->boundary).set(r.anchor.vid, open);
         return true;
     }
     template <class Mesh, class Push>
-    void renew(op::collapse_edge, const Mesh& m, const op_result<typename Mesh::tuple>& r, Push& push) const {
+    void renew(op::collapse_edge, const Mesh& m, const op_result<typename Mesh::tuple>& r,
+               Push& push) const {
         auto oriented = [&](op::collapse_edge o, const typename Mesh::tuple& t) {
             if (too_short(m, t)) push(o, detail::frozen_first(m, *s, t));
         };
@@ -229,15 +242,21 @@ struct remesh_swap_spec : detail::with_invariants<Extra...> {
         const auto fe = m.attribute(s->feature);
         if (fe[a] && fe[b]) return false; // keep feature lines
         const index_t c = m.opposite_vertex(t), d = m.opposite_vertex(*m.switch_face(t));
-        auto dev = [&](index_t v, int change) { return detail::valence_deviation(m, *s, v, change); };
+        auto dev = [&](index_t v, int change) {
+            return detail::valence_deviation(m, *s, v, change);
+        };
         const double now = dev(a, 0) + dev(b, 0) + dev(c, 0) + dev(d, 0);
         const double then = dev(a, -1) + dev(b, -1) + dev(c, +1) + dev(d, +1);
-        if (!(then < now)) return false;
+        if (then > now) return false;
+        const double old_min =
+            std::min(detail::min_angle(m, a, b, c), detail::min_angle(m, b, a, d));
+        const double new_min =
+            std::min(detail::min_angle(m, c, d, a), detail::min_angle(m, d, c, b));
         // Better valences are not worth a sliver: the flip may not halve the quad's
-        // smallest angle (a concave or nearly degenerate quad fails this).
-        const double old_min = std::min(detail::min_angle(m, a, b, c), detail::min_angle(m, b, a, d));
-        const double new_min = std::min(detail::min_angle(m, c, d, a), detail::min_angle(m, d, c, b));
-        return new_min >= 0.5 * old_min;
+        // smallest angle (a concave or nearly degenerate quad fails this). With equal
+        // valences, flip only to open up a thin pair of triangles.
+        if (then < now) return new_min >= 0.5 * old_min;
+        return old_min < 0.35 && new_min > 1.5 * old_min; // 0.35 rad = 20 degrees
     }
 };
 
@@ -248,7 +267,8 @@ struct remesh_smooth_spec : detail::with_invariants<Extra...> {
     bool project = true;
 
     template <class Mesh>
-    std::optional<vec3> before(op::smooth_vertex, const Mesh& m, const typename Mesh::tuple& t) const {
+    std::optional<vec3> before(op::smooth_vertex, const Mesh& m,
+                               const typename Mesh::tuple& t) const {
         const index_t v = t.vid;
         if (m.attribute(s->frozen)[v] || m.attribute(s->boundary)[v]) return std::nullopt;
         boost::container::small_vector<index_t, 32> ring;
@@ -262,7 +282,8 @@ struct remesh_smooth_spec : detail::with_invariants<Extra...> {
         return q;
     }
     template <class Mesh>
-    bool after(op::smooth_vertex, Mesh& m, const op_result<typename Mesh::tuple>& r, const vec3& q) const {
+    bool after(op::smooth_vertex, Mesh& m, const op_result<typename Mesh::tuple>& r,
+               const vec3& q) const {
         m.positions().set(r.anchor.vid, q);
         return true;
     }
@@ -276,8 +297,8 @@ struct remeshing_report {
 
 /// The whole algorithm: policies as template arguments, extra invariants as `Extra...`
 /// (constructed by the caller, e.g. an envelope of the input).
-template <class Mesh = tri_mesh<>, class Lock = lock::vertex_try_lock, class Queue = queue::dary_heap<4>,
-          class Partition = partition::morton, class... Extra>
+template <class Mesh = tri_mesh<>, class Lock = lock::vertex_try_lock,
+          class Queue = queue::dary_heap<4>, class Partition = partition::morton, class... Extra>
 struct isotropic_remeshing {
     static remeshing_report run(Mesh& m, const remeshing_options& o, const exec_options& exec = {},
                                 Extra... extra) {
@@ -300,16 +321,25 @@ struct isotropic_remeshing {
 
         remeshing_report report;
         for (unsigned it = 0; it < o.iterations; ++it) {
-            const auto a = executor<remesh_split_spec<Extra...>, Mesh, Lock, Queue, Partition>::run(m, split, exec);
-            const auto b = executor<remesh_collapse_spec<Extra...>, Mesh, Lock, Queue, Partition>::run(m, collapse, exec);
-            const auto c = executor<remesh_swap_spec<Extra...>, Mesh, Lock, queue::fifo, Partition>::run(m, swap, exec);
-            const auto d = executor<remesh_smooth_spec<Extra...>, Mesh, Lock, queue::fifo, Partition>::run(m, smooth, exec);
-            report.splits += a.succeeded, report.collapses += b.succeeded, report.swaps += c.succeeded;
+            const auto a = executor<remesh_split_spec<Extra...>, Mesh, Lock, Queue, Partition>::run(
+                m, split, exec);
+            const auto b =
+                executor<remesh_collapse_spec<Extra...>, Mesh, Lock, Queue, Partition>::run(
+                    m, collapse, exec);
+            const auto c =
+                executor<remesh_swap_spec<Extra...>, Mesh, Lock, queue::fifo, Partition>::run(
+                    m, swap, exec);
+            const auto d =
+                executor<remesh_smooth_spec<Extra...>, Mesh, Lock, queue::fifo, Partition>::run(
+                    m, smooth, exec);
+            report.splits += a.succeeded, report.collapses += b.succeeded,
+                report.swaps += c.succeeded;
             report.smooths += d.succeeded;
             ++report.iterations;
             if (a.succeeded + b.succeeded + c.succeeded == 0) break; // converged
         }
-        report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        report.seconds =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         return report;
     }
 
@@ -326,7 +356,8 @@ private:
             m.for_each_edge([&](const typename Mesh::tuple& t) {
                 const auto g = m.switch_face(t);
                 if (!g) return;
-                vec3 n1 = face_normal_unnormalised(m, t.fid), n2 = face_normal_unnormalised(m, g->fid);
+                vec3 n1 = face_normal_unnormalised(m, t.fid),
+                     n2 = face_normal_unnormalised(m, g->fid);
                 const double l = norm(n1) * norm(n2);
                 if (l > 0 && dot(n1, n2) / l < cos_limit) {
                     const auto [a, b] = m.edge_vertices(t);

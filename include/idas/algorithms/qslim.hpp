@@ -29,8 +29,8 @@ struct quadric {
 
     /// w * (n·x + d)^2 for the plane n·x + d = 0.
     static quadric plane(const vec3& n, double d, double w) {
-        return {w * n.x * n.x, w * n.x * n.y, w * n.x * n.z, w * n.y * n.y, w * n.y * n.z, w * n.z * n.z,
-                w * n.x * d,   w * n.y * d,   w * n.z * d,   w * d * d};
+        return {w * n.x * n.x, w * n.x * n.y, w * n.x * n.z, w * n.y * n.y, w * n.y * n.z,
+                w * n.z * n.z, w * n.x * d,   w * n.y * d,   w * n.z * d,   w * d * d};
     }
     quadric& operator+=(const quadric& o) {
         a00 += o.a00, a01 += o.a01, a02 += o.a02, a11 += o.a11, a12 += o.a12, a22 += o.a22;
@@ -41,18 +41,20 @@ struct quadric {
 
     double error(const vec3& p) const {
         const double x = p.x, y = p.y, z = p.z;
-        const double e = a00 * x * x + 2 * a01 * x * y + 2 * a02 * x * z + a11 * y * y + 2 * a12 * y * z +
-                         a22 * z * z + 2 * (b0 * x + b1 * y + b2 * z) + c;
+        const double e = a00 * x * x + 2 * a01 * x * y + 2 * a02 * x * z + a11 * y * y +
+                         2 * a12 * y * z + a22 * z * z + 2 * (b0 * x + b1 * y + b2 * z) + c;
         return std::max(e, 0.0); // rounding can dip below zero
     }
 
     /// The minimiser, if the 3x3 block is well conditioned.
     std::optional<vec3> minimizer() const {
-        const double c00 = a11 * a22 - a12 * a12, c01 = a02 * a12 - a01 * a22, c02 = a01 * a12 - a02 * a11;
+        const double c00 = a11 * a22 - a12 * a12, c01 = a02 * a12 - a01 * a22,
+                     c02 = a01 * a12 - a02 * a11;
         const double det = a00 * c00 + a01 * c01 + a02 * c02;
         const double scale = std::max({std::abs(a00), std::abs(a11), std::abs(a22)});
         if (!(std::abs(det) > 1e-10 * scale * scale * scale)) return std::nullopt;
-        const double c11 = a00 * a22 - a02 * a02, c12 = a01 * a02 - a00 * a12, c22 = a00 * a11 - a01 * a01;
+        const double c11 = a00 * a22 - a02 * a02, c12 = a01 * a02 - a00 * a12,
+                     c22 = a00 * a11 - a01 * a01;
         const double inv = -1.0 / det;
         vec3 p{(c00 * b0 + c01 * b1 + c02 * b2) * inv, (c01 * b0 + c11 * b1 + c12 * b2) * inv,
                (c02 * b0 + c12 * b1 + c22 * b2) * inv};
@@ -98,7 +100,8 @@ struct qslim_spec : face_target {
                 const double len = norm(side);
                 if (len == 0) continue;
                 side /= len;
-                const quadric kb = quadric::plane(side, -dot(side, m.position(a)), boundary_weight * dot(d, d));
+                const quadric kb =
+                    quadric::plane(side, -dot(side, m.position(a)), boundary_weight * dot(d, d));
                 q.raw(a) += kb, q.raw(b) += kb;
             }
         });
@@ -123,13 +126,15 @@ struct qslim_spec : face_target {
     }
 
     template <class Mesh>
-    std::optional<placement> before(op::collapse_edge, const Mesh& m, const typename Mesh::tuple& t) const {
+    std::optional<placement> before(op::collapse_edge, const Mesh& m,
+                                    const typename Mesh::tuple& t) const {
         const auto [a, b] = m.edge_vertices(t);
         return place(m, a, b);
     }
 
     template <class Mesh>
-    bool after(op::collapse_edge, Mesh& m, const op_result<typename Mesh::tuple>& r, const placement& p) const {
+    bool after(op::collapse_edge, Mesh& m, const op_result<typename Mesh::tuple>& r,
+               const placement& p) const {
         m.positions().set(r.anchor.vid, p.position);
         m.attribute(Q).set(r.anchor.vid, p.merged);
         return true;
@@ -138,13 +143,14 @@ struct qslim_spec : face_target {
     auto invariants() const { return invariant_set<no_normal_flip>{}; }
 
     template <class Mesh, class Push>
-    void renew(op::collapse_edge, const Mesh& m, const op_result<typename Mesh::tuple>& r, Push& push) const {
+    void renew(op::collapse_edge, const Mesh& m, const op_result<typename Mesh::tuple>& r,
+               Push& push) const {
         push_star_edges<op::collapse_edge>(m, r, push);
     }
 };
 
-template <class Mesh = tri_mesh<>, class Lock = lock::vertex_try_lock, class Queue = queue::dary_heap<4>,
-          class Partition = partition::morton>
+template <class Mesh = tri_mesh<>, class Lock = lock::vertex_try_lock,
+          class Queue = queue::dary_heap<4>, class Partition = partition::morton>
 using qslim = executor<qslim_spec, Mesh, Lock, Queue, Partition>;
 
 } // namespace idas::algorithms

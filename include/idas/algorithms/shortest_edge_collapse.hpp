@@ -26,7 +26,8 @@ struct shortest_edge_collapse_spec : face_target {
     }
 
     template <class Mesh>
-    std::optional<vec3> before(op::collapse_edge, const Mesh& m, const typename Mesh::tuple& t) const {
+    std::optional<vec3> before(op::collapse_edge, const Mesh& m,
+                               const typename Mesh::tuple& t) const {
         const auto [a, b] = m.edge_vertices(t);
         const bool on_a = m.is_boundary_vertex(a), on_b = m.is_boundary_vertex(b);
         if (on_a != on_b) return m.position(on_a ? a : b); // keep the boundary where it is
@@ -34,18 +35,22 @@ struct shortest_edge_collapse_spec : face_target {
     }
 
     template <class Mesh>
-    bool after(op::collapse_edge, Mesh& m, const op_result<typename Mesh::tuple>& r, const vec3& p) const {
+    bool after(op::collapse_edge, Mesh& m, const op_result<typename Mesh::tuple>& r,
+               const vec3& p) const {
         m.positions().set(r.anchor.vid, p);
         return true;
     }
 
     auto invariants() const {
-        if constexpr (NoNormalFlip) return invariant_set<no_normal_flip>{};
-        else return invariant_set<>{};
+        if constexpr (NoNormalFlip)
+            return invariant_set<no_normal_flip>{};
+        else
+            return invariant_set<>{};
     }
 
     template <class Mesh, class Push>
-    void renew(op::collapse_edge, const Mesh& m, const op_result<typename Mesh::tuple>& r, Push& push) const {
+    void renew(op::collapse_edge, const Mesh& m, const op_result<typename Mesh::tuple>& r,
+               Push& push) const {
         push_star_edges<op::collapse_edge>(m, r, push);
     }
 };
@@ -53,6 +58,7 @@ struct shortest_edge_collapse_spec : face_target {
 /// The algorithm as a type: spec + data structure + lock + queue + partition.
 template <bool NoNormalFlip = true, class Mesh = tri_mesh<>, class Lock = lock::vertex_try_lock,
           class Queue = queue::dary_heap<4>, class Partition = partition::morton>
-using shortest_edge_collapse = executor<shortest_edge_collapse_spec<NoNormalFlip>, Mesh, Lock, Queue, Partition>;
+using shortest_edge_collapse =
+    executor<shortest_edge_collapse_spec<NoNormalFlip>, Mesh, Lock, Queue, Partition>;
 
 } // namespace idas::algorithms

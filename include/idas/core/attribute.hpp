@@ -30,10 +30,14 @@ struct attribute_handle {
     bool valid() const noexcept { return column != ~std::uint32_t{0}; }
 };
 
-template <class T> using vertex_attribute = attribute_handle<T, simplex_kind::vertex>;
-template <class T> using edge_attribute = attribute_handle<T, simplex_kind::edge>;
-template <class T> using face_attribute = attribute_handle<T, simplex_kind::face>;
-template <class T> using tet_attribute = attribute_handle<T, simplex_kind::tet>;
+template <class T>
+using vertex_attribute = attribute_handle<T, simplex_kind::vertex>;
+template <class T>
+using edge_attribute = attribute_handle<T, simplex_kind::edge>;
+template <class T>
+using face_attribute = attribute_handle<T, simplex_kind::face>;
+template <class T>
+using tet_attribute = attribute_handle<T, simplex_kind::tet>;
 
 namespace detail {
 
@@ -48,7 +52,7 @@ struct column_base {
     std::string name;
 
     virtual ~column_base() = default;
-    virtual void grow(std::size_t n) = 0;                     // size >= n, new slots default
+    virtual void grow(std::size_t n) = 0; // size >= n, new slots default
     virtual std::unique_ptr<column_base> clone() const = 0;
     virtual void fill_default(std::size_t from, std::size_t to) = 0;
     /// Keeps slot old_of_new[i] as slot i (compaction after removals).
@@ -61,7 +65,8 @@ struct column final : column_base {
     std::vector<T> values;
     T default_value{};
 
-    column(std::string n, simplex_kind k, T dflt) : default_value(dflt) {
+    column(std::string n, simplex_kind k, T dflt)
+        : default_value(dflt) {
         name = std::move(n);
         kind = k;
         stride = sizeof(T);
@@ -148,7 +153,9 @@ inline thread_local attribute_journal* active_attribute_journal = nullptr;
 template <attribute_value T>
 class attribute_accessor {
 public:
-    attribute_accessor(detail::column<T>* c, std::uint32_t id) : col_(c), id_(id) {}
+    attribute_accessor(detail::column<T>* c, std::uint32_t id)
+        : col_(c)
+        , id_(id) {}
 
     const T& operator[](index_t i) const noexcept { return col_->values[i]; }
     const T& get(index_t i) const noexcept { return col_->values[i]; }

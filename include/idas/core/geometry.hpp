@@ -10,7 +10,8 @@ namespace idas {
 
 /// Squared distance from p to triangle (a, b, c), by the Voronoi regions of the
 /// triangle's features (vertices, edges, interior).
-inline double point_triangle_squared_distance(const vec3& p, const vec3& a, const vec3& b, const vec3& c) {
+inline double point_triangle_squared_distance(const vec3& p, const vec3& a, const vec3& b,
+                                              const vec3& c) {
     const vec3 ab = b - a, ac = c - a, ap = p - a;
     const double d1 = dot(ab, ap), d2 = dot(ac, ap);
     if (d1 <= 0 && d2 <= 0) return squared_norm(ap);

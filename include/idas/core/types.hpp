@@ -28,10 +28,22 @@ struct vec3 {
     constexpr double& operator[](int i) noexcept { return i == 0 ? x : (i == 1 ? y : z); }
     constexpr double operator[](int i) const noexcept { return i == 0 ? x : (i == 1 ? y : z); }
 
-    constexpr vec3& operator+=(const vec3& o) noexcept { x += o.x, y += o.y, z += o.z; return *this; }
-    constexpr vec3& operator-=(const vec3& o) noexcept { x -= o.x, y -= o.y, z -= o.z; return *this; }
-    constexpr vec3& operator*=(double s) noexcept { x *= s, y *= s, z *= s; return *this; }
-    constexpr vec3& operator/=(double s) noexcept { x /= s, y /= s, z /= s; return *this; }
+    constexpr vec3& operator+=(const vec3& o) noexcept {
+        x += o.x, y += o.y, z += o.z;
+        return *this;
+    }
+    constexpr vec3& operator-=(const vec3& o) noexcept {
+        x -= o.x, y -= o.y, z -= o.z;
+        return *this;
+    }
+    constexpr vec3& operator*=(double s) noexcept {
+        x *= s, y *= s, z *= s;
+        return *this;
+    }
+    constexpr vec3& operator/=(double s) noexcept {
+        x /= s, y /= s, z /= s;
+        return *this;
+    }
     friend constexpr vec3 operator+(vec3 a, const vec3& b) noexcept { return a += b; }
     friend constexpr vec3 operator-(vec3 a, const vec3& b) noexcept { return a -= b; }
     friend constexpr vec3 operator-(const vec3& a) noexcept { return {-a.x, -a.y, -a.z}; }
@@ -41,12 +53,18 @@ struct vec3 {
     friend constexpr bool operator==(const vec3&, const vec3&) = default;
 };
 
-constexpr double dot(const vec3& a, const vec3& b) noexcept { return a.x * b.x + a.y * b.y + a.z * b.z; }
+constexpr double dot(const vec3& a, const vec3& b) noexcept {
+    return a.x * b.x + a.y * b.y + a.z * b.z;
+}
 constexpr vec3 cross(const vec3& a, const vec3& b) noexcept {
     return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
 }
-inline double squared_norm(const vec3& a) noexcept { return dot(a, a); }
-inline double norm(const vec3& a) noexcept { return std::sqrt(dot(a, a)); }
+inline double squared_norm(const vec3& a) noexcept {
+    return dot(a, a);
+}
+inline double norm(const vec3& a) noexcept {
+    return std::sqrt(dot(a, a));
+}
 inline bool is_finite(const vec3& a) noexcept {
     return std::isfinite(a.x) && std::isfinite(a.y) && std::isfinite(a.z);
 }

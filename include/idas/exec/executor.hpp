@@ -57,13 +57,14 @@ struct progress {
 
 struct exec_options {
     unsigned threads = 1;
-    unsigned max_retry = 8;      // lock failures before an entry goes to the final serial pass
-    unsigned check_every = 32;   // successes between `stop` checks per worker (parallel only)
+    unsigned max_retry = 8;    // lock failures before an entry goes to the final serial pass
+    unsigned check_every = 32; // successes between `stop` checks per worker (parallel only)
     unsigned parts_per_thread = 1;
 };
 
 struct run_report {
-    std::uint64_t pushed = 0, popped = 0, purged = 0, stale = 0, skipped = 0, attempted = 0, succeeded = 0, refused = 0;
+    std::uint64_t pushed = 0, popped = 0, purged = 0, stale = 0, skipped = 0, attempted = 0,
+                  succeeded = 0, refused = 0;
     std::uint64_t lock_failures = 0, deferred_to_serial = 0, stolen = 0;
     std::int64_t faces = 0, vertices = 0;
     unsigned threads = 1;
@@ -106,20 +107,27 @@ void run_workers(unsigned threads, unsigned n, Fn&& fn) {
     // core count otherwise.
     tbb::global_control allow(tbb::global_control::max_allowed_parallelism, threads);
     tbb::task_arena arena(static_cast<int>(threads));
-    arena.execute([&] { tbb::parallel_for(0u, n, [&](unsigned i) { fn(i); }, tbb::simple_partitioner{}); });
+    arena.execute([&] {
+        tbb::parallel_for(
+            0u, n, [&](unsigned i) { fn(i); }, tbb::simple_partitioner{});
+    });
 #endif
 }
 } // namespace detail
 
 /// A spec the executor can run on Mesh: it lists its operations, each applicable.
 template <class Spec, class Mesh>
-concept schedule_spec = requires { typename Spec::operations; } &&
-                        requires { detail::op_list_traits<typename Spec::operations>{}; };
+concept schedule_spec = requires {
+    typename Spec::operations;
+}
+&&requires {
+    detail::op_list_traits<typename Spec::operations>{};
+};
 
-template <class Spec, tri_mesh_like Mesh, lock_policy Lock = lock::none, class Queue = queue::binary_heap,
-          class Partition = partition::morton>
-    requires schedule_spec<Spec, Mesh> && queue_policy<Queue, queue_entry<typename Mesh::tuple>> &&
-             partition_policy<Partition, Mesh>
+template <class Spec, tri_mesh_like Mesh, lock_policy Lock = lock::none,
+          class Queue = queue::binary_heap, class Partition = partition::morton>
+requires schedule_spec<Spec, Mesh> && queue_policy<Queue, queue_entry<typename Mesh::tuple>> &&
+    partition_policy<Partition, Mesh>
 class executor {
 public:
     using tuple = typename Mesh::tuple;
@@ -137,12 +145,15 @@ public:
         // out new slots to workers.
         constexpr bool can_run_parallel = !ops::adds_simplices || Mesh::parallel_growth;
         if constexpr (Lock::parallel && can_run_parallel) {
-            if (options.threads > 1) report = run_parallel(m, spec, options);
-            else report = run_serial(m, spec);
+            if (options.threads > 1)
+                report = run_parallel(m, spec, options);
+            else
+                report = run_serial(m, spec);
         } else {
             report = run_serial(m, spec);
         }
-        report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        report.seconds =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         return report;
     }
 
@@ -150,8 +161,10 @@ public:
 
     template <class Op>
     static double priority_of(Spec& spec, const Mesh& m, const tuple& t) {
-        if constexpr (requires { spec.priority(Op{}, m, t); }) return static_cast<double>(spec.priority(Op{}, m, t));
-        else return 0.0;
+        if constexpr (requires { spec.priority(Op{}, m, t); })
+            return static_cast<double>(spec.priority(Op{}, m, t));
+        else
+            return 0.0;
     }
 
     /// Enqueues the initial entries through `push(Op, tuple)`.
@@ -162,8 +175,10 @@ public:
         } else {
             ops::for_each([&](auto op) {
                 using Op = decltype(op);
-                if constexpr (detail::is_vertex_op<Op>) m.for_each_vertex([&](const tuple& t) { push(Op{}, t); });
-                else m.for_each_edge([&](const tuple& t) { push(Op{}, t); });
+                if constexpr (detail::is_vertex_op<Op>)
+                    m.for_each_vertex([&](const tuple& t) { push(Op{}, t); });
+                else
+                    m.for_each_edge([&](const tuple& t) { push(Op{}, t); });
             });
         }
     }
@@ -176,25 +191,36 @@ public:
     /// A spec that knows how many successes it still wants lets parallel workers stop
     /// right after the success that reaches the goal, not at the next periodic check.
     static bool goal_reached(Spec& spec, const progress& p) {
-        if constexpr (requires { { spec.remaining(p) } -> std::convertible_to<std::int64_t>; })
+        if constexpr (requires {
+                          { spec.remaining(p) } -> std::convertible_to<std::int64_t>;
+                      })
             return spec.remaining(p) <= 0;
-        else return false;
+        else
+            return false;
     }
 
     static bool should_stop(Spec& spec, const progress& p) {
-        if constexpr (requires { { spec.stop(p) } -> std::convertible_to<bool>; }) return spec.stop(p);
-        else return false;
+        if constexpr (requires {
+                          { spec.stop(p) } -> std::convertible_to<bool>;
+                      })
+            return spec.stop(p);
+        else
+            return false;
     }
 
     template <class Op>
     static bool should_process(Spec& spec, const Mesh& m, const entry& e) {
-        if constexpr (requires { { spec.should_process(Op{}, m, e) } -> std::convertible_to<bool>; })
+        if constexpr (requires {
+                          { spec.should_process(Op{}, m, e) } -> std::convertible_to<bool>;
+                      })
             return spec.should_process(Op{}, m, e);
-        else return true;
+        else
+            return true;
     }
 
     static progress counts(const Mesh& m) {
-        return {static_cast<std::int64_t>(m.n_faces()), static_cast<std::int64_t>(m.n_vertices()), 0};
+        return {static_cast<std::int64_t>(m.n_faces()), static_cast<std::int64_t>(m.n_vertices()),
+                0};
     }
 
 private:
@@ -280,8 +306,8 @@ private:
     /// tuple can be validated under lock), then every vertex of their stars. Writers of a
     /// face hold all of its vertices, so holding a vertex freezes its star.
     template <class Op>
-    static claim_result claim(Spec& spec, const Mesh& m, const tuple& t, Lock& locks, std::uint32_t me,
-                              held_vertices& held) {
+    static claim_result claim(Spec& spec, const Mesh& m, const tuple& t, Lock& locks,
+                              std::uint32_t me, held_vertices& held) {
         auto take = [&](index_t v) {
             if (std::find(held.begin(), held.end(), v) != held.end()) return true;
             if (!locks.try_lock(v, me)) return false;
@@ -321,7 +347,8 @@ private:
             // Room for the growth the spec expects (default: the mesh may double), dealt
             // out to the workers; an operation that does not fit waits for the serial pass.
             index_t extra_vertices = std::max<index_t>(4096, m.vertex_slots());
-            if constexpr (requires { spec.parallel_growth(m); }) extra_vertices = spec.parallel_growth(m);
+            if constexpr (requires { spec.parallel_growth(m); })
+                extra_vertices = spec.parallel_growth(m);
             m.begin_parallel(P, extra_vertices, 2 * extra_vertices);
         }
         Lock locks(m.vertex_slots()); // after growth: new vertices get lock words too
@@ -343,7 +370,9 @@ private:
                 q.reserve(all.size() / P * 2 + 64);
                 for (entry e : all) {
                     if (part[e.tuple.vid] != w) continue;
-                    ops::dispatch(e.kind, [&](auto op) { e.priority = priority_of<decltype(op)>(spec, m, e.tuple); });
+                    ops::dispatch(e.kind, [&](auto op) {
+                        e.priority = priority_of<decltype(op)>(spec, m, e.tuple);
+                    });
                     q.push(e);
                 }
             });
@@ -359,7 +388,8 @@ private:
         std::atomic<std::int64_t> live_faces{start.faces}, live_vertices{start.vertices};
         std::atomic<std::uint64_t> live_successes{0};
         auto global_progress = [&] {
-            return progress{live_faces.load(std::memory_order_relaxed), live_vertices.load(std::memory_order_relaxed),
+            return progress{live_faces.load(std::memory_order_relaxed),
+                            live_vertices.load(std::memory_order_relaxed),
                             live_successes.load(std::memory_order_relaxed)};
         };
 
@@ -447,10 +477,12 @@ private:
                         for (const auto& x : renewed) me.q.push(x);
                         me.report.pushed += renewed.size();
                     }
-                    const std::int64_t dfaces = me.ctx.face_delta - fd, dverts = me.ctx.vertex_delta - vd;
-                    const progress now{live_faces.fetch_add(dfaces, std::memory_order_relaxed) + dfaces,
-                                       live_vertices.fetch_add(dverts, std::memory_order_relaxed) + dverts,
-                                       live_successes.fetch_add(1, std::memory_order_relaxed) + 1};
+                    const std::int64_t dfaces = me.ctx.face_delta - fd,
+                                       dverts = me.ctx.vertex_delta - vd;
+                    const progress now{
+                        live_faces.fetch_add(dfaces, std::memory_order_relaxed) + dfaces,
+                        live_vertices.fetch_add(dverts, std::memory_order_relaxed) + dverts,
+                        live_successes.fetch_add(1, std::memory_order_relaxed) + 1};
                     if (goal_reached(spec, now)) stop.store(true, std::memory_order_relaxed);
                     if (++since_check >= o.check_every) {
                         since_check = 0;
@@ -467,9 +499,12 @@ private:
         report.pushed = initial_count;
         for (auto& w : workers) {
             auto& r = w->report;
-            report.pushed += r.pushed, report.popped += r.popped, report.stale += r.stale, report.skipped += r.skipped;
-            report.attempted += r.attempted, report.succeeded += r.succeeded, report.refused += r.refused;
-            report.lock_failures += r.lock_failures, report.deferred_to_serial += r.deferred_to_serial;
+            report.pushed += r.pushed, report.popped += r.popped, report.stale += r.stale,
+                report.skipped += r.skipped;
+            report.attempted += r.attempted, report.succeeded += r.succeeded,
+                report.refused += r.refused;
+            report.lock_failures += r.lock_failures,
+                report.deferred_to_serial += r.deferred_to_serial;
             report.stolen += r.stolen;
         }
         if constexpr (ops::adds_simplices) m.end_parallel();

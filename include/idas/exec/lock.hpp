@@ -14,9 +14,9 @@ namespace idas {
 template <class L>
 concept lock_policy = requires(L l, index_t v, std::uint32_t owner, std::size_t n) {
     { L::parallel } -> std::convertible_to<bool>;
-    { L(n) };
+    {L(n)};
     { l.try_lock(v, owner) } -> std::same_as<bool>;
-    { l.unlock(v, owner) };
+    {l.unlock(v, owner)};
 };
 
 namespace lock {
@@ -36,16 +36,21 @@ struct none {
 class vertex_try_lock {
 public:
     static constexpr bool parallel = true;
-    explicit vertex_try_lock(std::size_t n) : owner_(std::make_unique<std::atomic<std::uint32_t>[]>(n)), n_(n) {
+    explicit vertex_try_lock(std::size_t n)
+        : owner_(std::make_unique<std::atomic<std::uint32_t>[]>(n))
+        , n_(n) {
         for (std::size_t i = 0; i < n; ++i) owner_[i].store(0, std::memory_order_relaxed);
     }
     bool try_lock(index_t v, std::uint32_t me) noexcept {
         std::uint32_t expected = 0;
-        if (owner_[v].compare_exchange_strong(expected, me, std::memory_order_acquire, std::memory_order_relaxed))
+        if (owner_[v].compare_exchange_strong(expected, me, std::memory_order_acquire,
+                                              std::memory_order_relaxed))
             return true;
         return expected == me;
     }
-    void unlock(index_t v, std::uint32_t) noexcept { owner_[v].store(0, std::memory_order_release); }
+    void unlock(index_t v, std::uint32_t) noexcept {
+        owner_[v].store(0, std::memory_order_release);
+    }
     std::size_t size() const noexcept { return n_; }
 
 private:

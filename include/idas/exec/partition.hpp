@@ -48,7 +48,8 @@ struct morton {
         for (index_t v = 0; v < n; ++v) {
             if (!m.vertex_alive(v)) continue;
             const vec3& p = m.position(v);
-            for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], p[k]), hi[k] = std::max(hi[k], p[k]);
+            for (int k = 0; k < 3; ++k)
+                lo[k] = std::min(lo[k], p[k]), hi[k] = std::max(hi[k], p[k]);
         }
         const double extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z, 1e-300});
         std::vector<std::pair<std::uint64_t, index_t>> keyed;
@@ -91,8 +92,9 @@ struct metis {
         idx_t options[METIS_NOPTIONS];
         METIS_SetDefaultOptions(options);
         options[METIS_OPTION_SEED] = 1; // deterministic
-        const int status = METIS_PartGraphKway(&nv, &ncon, xadj.data(), adjncy.data(), nullptr, nullptr, nullptr,
-                                               &nparts, nullptr, nullptr, options, &objval, result.data());
+        const int status =
+            METIS_PartGraphKway(&nv, &ncon, xadj.data(), adjncy.data(), nullptr, nullptr, nullptr,
+                                &nparts, nullptr, nullptr, options, &objval, result.data());
         if (status != METIS_OK) throw std::runtime_error("METIS_PartGraphKway failed");
         for (index_t v = 0; v < n; ++v) part[v] = static_cast<std::uint32_t>(result[v]);
         return part;

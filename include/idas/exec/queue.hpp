@@ -19,11 +19,11 @@ struct queue_entry {
 
 template <class Q, class E>
 concept queue_for = std::default_initializable<Q> && requires(Q q, const E& e, E& out) {
-    { q.push(e) };
+    {q.push(e)};
     { q.pop(out) } -> std::same_as<bool>;
     { q.size() } -> std::convertible_to<std::size_t>;
-    { q.clear() };
-    { q.reserve(std::size_t{}) };
+    {q.clear()};
+    {q.reserve(std::size_t{})};
 };
 
 /// A queue policy names a family of queues, one per entry type.

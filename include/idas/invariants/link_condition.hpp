@@ -65,8 +65,8 @@ bool link_condition_holds(const Mesh& m, const typename Mesh::tuple& t) {
         return !(detail::has_face(m, a, c, d) && detail::has_face(m, b, c, d));
     }
     // Boundary edge ab in face abc: refuse if ac and bc are boundary edges too.
-    const auto ac = m.switch_edge(t);                   // at a, edge (a, c)
-    const auto bc = m.switch_edge(m.switch_vertex(t));  // at b, edge (b, c)
+    const auto ac = m.switch_edge(t);                  // at a, edge (a, c)
+    const auto bc = m.switch_edge(m.switch_vertex(t)); // at b, edge (b, c)
     return !(m.is_boundary_edge(ac) && m.is_boundary_edge(bc));
 }
 
@@ -75,8 +75,10 @@ struct link_condition {
     struct state {};
     template <class Op, class Mesh>
     bool before(Op, const Mesh& m, const typename Mesh::tuple& t, state&) const {
-        if constexpr (std::is_same_v<Op, op::collapse_edge>) return link_condition_holds(m, t);
-        else return true;
+        if constexpr (std::is_same_v<Op, op::collapse_edge>)
+            return link_condition_holds(m, t);
+        else
+            return true;
     }
 };
 

@@ -33,7 +33,10 @@ struct topology_report {
 namespace detail {
 struct union_find {
     std::vector<index_t> parent;
-    explicit union_find(std::size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), index_t{0}); }
+    explicit union_find(std::size_t n)
+        : parent(n) {
+        std::iota(parent.begin(), parent.end(), index_t{0});
+    }
     index_t find(index_t x) {
         while (parent[x] != x) x = parent[x] = parent[parent[x]];
         return x;
@@ -42,7 +45,8 @@ struct union_find {
 };
 } // namespace detail
 
-inline topology_report diagnose_topology(std::size_t n_vertices, const std::vector<tri_indices>& faces,
+inline topology_report diagnose_topology(std::size_t n_vertices,
+                                         const std::vector<tri_indices>& faces,
                                          std::size_t max_problems = 8) {
     topology_report r;
     r.vertices = n_vertices;
@@ -109,8 +113,8 @@ inline topology_report diagnose_topology(std::size_t n_vertices, const std::vect
             vertex_joins.push_back({hs[i].hi, {hs[i].face, hs[i + 1].face}});
         } else {
             ++r.nonmanifold_edges;
-            note("non-manifold edge (" + std::to_string(hs[i].lo) + ", " + std::to_string(hs[i].hi) +
-                 ") is shared by " + std::to_string(k) + " faces");
+            note("non-manifold edge (" + std::to_string(hs[i].lo) + ", " +
+                 std::to_string(hs[i].hi) + ") is shared by " + std::to_string(k) + " faces");
             for (std::size_t m = i + 1; m < j; ++m) face_sets.unite(hs[i].face, hs[m].face);
         }
         i = j;
@@ -145,8 +149,8 @@ inline topology_report diagnose_topology(std::size_t n_vertices, const std::vect
                 return x;
             };
             auto local = [&](index_t f) {
-                return static_cast<index_t>(std::lower_bound(star.begin() + b, star.begin() + e, f) -
-                                            (star.begin() + b));
+                return static_cast<index_t>(
+                    std::lower_bound(star.begin() + b, star.begin() + e, f) - (star.begin() + b));
             };
             std::size_t groups = n;
             while (jpos < vertex_joins.size() && vertex_joins[jpos].first == v) {

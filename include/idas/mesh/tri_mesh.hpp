@@ -30,7 +30,8 @@ public:
     /// Builds an editable mesh. Throws input_error, naming the offending elements, unless
     /// the faces form a consistently oriented 2-manifold (boundaries allowed) and every
     /// coordinate is finite.
-    tri_mesh(const std::vector<vec3>& vertices, const std::vector<tri_indices>& faces) : tri_mesh() {
+    tri_mesh(const std::vector<vec3>& vertices, const std::vector<tri_indices>& faces)
+        : tri_mesh() {
         for (std::size_t i = 0; i < vertices.size(); ++i)
             if (!is_finite(vertices[i]))
                 throw input_error("vertex " + std::to_string(i) + " has a non-finite coordinate");
@@ -130,7 +131,9 @@ public:
     /// A manifold vertex is on the boundary iff its faces' fan is open: one more
     /// neighbour than faces.
     bool is_boundary_vertex(index_t v) const noexcept {
-        if constexpr (requires { { conn_.is_boundary_vertex(v) } -> std::convertible_to<bool>; }) {
+        if constexpr (requires {
+                          { conn_.is_boundary_vertex(v) } -> std::convertible_to<bool>;
+                      }) {
             return conn_.is_boundary_vertex(v); // a backend that circulates knows directly
         } else {
             boost::container::small_vector<index_t, 24> ring;
@@ -145,20 +148,26 @@ public:
         const auto start = out.size();
         for (index_t f : conn_.vertex_faces(v))
             for (index_t w : conn_.face_vertices(f))
-                if (w != v && std::find(out.begin() + start, out.end(), w) == out.end()) out.push_back(w);
+                if (w != v && std::find(out.begin() + start, out.end(), w) == out.end())
+                    out.push_back(w);
     }
     decltype(auto) vertex_faces(index_t v) const noexcept { return conn_.vertex_faces(v); }
     const tri_indices& face_vertices(index_t f) const noexcept { return conn_.face_vertices(f); }
     /// The two vertices of the tuple's edge, tuple's vertex first.
-    std::pair<index_t, index_t> edge_vertices(const tuple& t) const noexcept { return {t.vid, other_endpoint(t)}; }
+    std::pair<index_t, index_t> edge_vertices(const tuple& t) const noexcept {
+        return {t.vid, other_endpoint(t)};
+    }
     /// The vertex opposite the tuple's edge in the tuple's face.
-    index_t opposite_vertex(const tuple& t) const noexcept { return conn_.face_vertices(t.fid)[t.local_edge]; }
+    index_t opposite_vertex(const tuple& t) const noexcept {
+        return conn_.face_vertices(t.fid)[t.local_edge];
+    }
 
     // ---- iteration (one tuple per simplex) ----
     template <class F>
     void for_each_vertex(F&& f) const {
         for (index_t v = 0; v < vertex_slots(); ++v)
-            if (conn_.vertex_alive(v) && !std::ranges::empty(conn_.vertex_faces(v))) f(tuple_from_vertex(v));
+            if (conn_.vertex_alive(v) && !std::ranges::empty(conn_.vertex_faces(v)))
+                f(tuple_from_vertex(v));
     }
     template <class F>
     void for_each_face(F&& f) const {
@@ -176,9 +185,15 @@ public:
             }
         }
     }
-    std::vector<tuple> get_vertices() const { return collect([&](auto&& g) { for_each_vertex(g); }); }
-    std::vector<tuple> get_edges() const { return collect([&](auto&& g) { for_each_edge(g); }); }
-    std::vector<tuple> get_faces() const { return collect([&](auto&& g) { for_each_face(g); }); }
+    std::vector<tuple> get_vertices() const {
+        return collect([&](auto&& g) { for_each_vertex(g); });
+    }
+    std::vector<tuple> get_edges() const {
+        return collect([&](auto&& g) { for_each_edge(g); });
+    }
+    std::vector<tuple> get_faces() const {
+        return collect([&](auto&& g) { for_each_face(g); });
+    }
 
     // ---- attributes ----
     template <attribute_value T>
@@ -194,7 +209,9 @@ public:
         return attrs_.add<T, simplex_kind::face>(std::move(name), face_slots(), dflt);
     }
     template <attribute_value T, simplex_kind K>
-    attribute_accessor<T> attribute(attribute_handle<T, K> h) const { return attrs_.access(h); }
+    attribute_accessor<T> attribute(attribute_handle<T, K> h) const {
+        return attrs_.access(h);
+    }
 
     vertex_attribute<vec3> position_handle() const noexcept { return position_; }
     attribute_accessor<vec3> positions() const { return attrs_.access(position_); }
@@ -232,20 +249,17 @@ public:
     };
     /// Grows every array once so `workers` workers can add up to the given numbers of
     /// vertices and faces concurrently (see the backend's begin_parallel).
-    void begin_parallel(unsigned workers, index_t extra_vertices, index_t extra_faces)
-        requires parallel_growth
-    {
+    void begin_parallel(unsigned workers, index_t extra_vertices,
+                        index_t extra_faces) requires parallel_growth {
         conn_.begin_parallel(workers, extra_vertices, extra_faces);
         grow_attributes();
     }
-    void end_parallel()
-        requires parallel_growth
-    {
-        conn_.end_parallel();
-    }
+    void end_parallel() requires parallel_growth { conn_.end_parallel(); }
     bool has_room(index_t vertices, index_t faces) const noexcept {
-        if constexpr (parallel_growth) return conn_.has_room(vertices, faces);
-        else return true;
+        if constexpr (parallel_growth)
+            return conn_.has_room(vertices, faces);
+        else
+            return true;
     }
     void reserve(index_t vertices, index_t faces) {
         conn_.reserve(vertices, faces);
@@ -286,7 +300,8 @@ public:
                 const auto& fv = conn_.face_vertices(f);
                 old_f.push_back(f);
                 F.push_back({new_v[fv[0]], new_v[fv[1]], new_v[fv[2]]});
-                for (std::uint8_t le = 0; le < 3; ++le) old_e.push_back(eid(tuple_from_edge(f, le)));
+                for (std::uint8_t le = 0; le < 3; ++le)
+                    old_e.push_back(eid(tuple_from_edge(f, le)));
             }
         Backend fresh;
         fresh.build(static_cast<index_t>(old_v.size()), F);
@@ -311,7 +326,9 @@ private:
     /// corners answers with one load; otherwise the face across is searched for.
     std::pair<index_t, std::uint8_t> opposite_edge(const tuple& t) const noexcept {
         if constexpr (requires {
-                          { conn_.opposite_edge(t.fid, t.local_edge) } -> std::same_as<std::pair<index_t, std::uint8_t>>;
+                          {
+                              conn_.opposite_edge(t.fid, t.local_edge)
+                              } -> std::same_as<std::pair<index_t, std::uint8_t>>;
                       }) {
             return conn_.opposite_edge(t.fid, t.local_edge);
         } else {

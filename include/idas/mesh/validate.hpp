@@ -13,7 +13,9 @@ namespace idas {
 
 namespace detail {
 
-inline std::string at(const char* what, index_t i) { return std::string(what) + " " + std::to_string(i) + ": "; }
+inline std::string at(const char* what, index_t i) {
+    return std::string(what) + " " + std::to_string(i) + ": ";
+}
 
 /// A live face: live distinct vertices that list it, tuple identities on its three
 /// edges, and neighbours that traverse each shared edge in the opposite direction.
@@ -27,13 +29,18 @@ std::optional<std::string> check_face(const tri_mesh<Backend>& m, index_t f) {
         if (fv[i] == fv[(i + 1) % 3]) return at("face", f) + "is degenerate";
         bool listed = false;
         for (index_t g : c.vertex_faces(fv[i])) listed |= g == f;
-        if (!listed) return at("face", f) + "missing from incidence list of vertex " + std::to_string(fv[i]);
+        if (!listed)
+            return at("face", f) + "missing from incidence list of vertex " + std::to_string(fv[i]);
     }
+    if constexpr (requires { { c.check_face(f) } -> std::same_as<std::optional<std::string>>; })
+        if (auto e = c.check_face(f)) return at("face", f) + *e; // the backend's own invariants
     for (std::uint8_t le = 0; le < 3; ++le) {
         const auto t = m.tuple_from_edge(f, le);
         if (!m.is_valid(t)) return at("face", f) + "fresh tuple is not valid";
-        if (m.switch_vertex(m.switch_vertex(t)) != t) return at("face", f) + "switch_vertex is not an involution";
-        if (m.switch_edge(m.switch_edge(t)) != t) return at("face", f) + "switch_edge is not an involution";
+        if (m.switch_vertex(m.switch_vertex(t)) != t)
+            return at("face", f) + "switch_vertex is not an involution";
+        if (m.switch_edge(m.switch_edge(t)) != t)
+            return at("face", f) + "switch_edge is not an involution";
         if (auto g = m.switch_face(t)) {
             auto back = m.switch_face(*g);
             if (!back || *back != t) return at("face", f) + "switch_face is not an involution";
@@ -41,7 +48,18 @@ std::optional<std::string> check_face(const tri_mesh<Backend>& m, index_t f) {
             const index_t x = fv[(le + 1) % 3], y = fv[(le + 2) % 3];
             const std::uint8_t gl = g->local_edge;
             if (!(gv[(gl + 1) % 3] == y && gv[(gl + 2) % 3] == x))
-                return at("face", f) + "neighbour " + std::to_string(g->fid) + " is oriented inconsistently";
+                return at("face", f) + "neighbour " + std::to_string(g->fid) +
+                       " is oriented inconsistently";
+        } else {
+            // A boundary edge must really have no other face (a backend that stores
+            // neighbour links could have missed one).
+            const index_t x = fv[(le + 1) % 3], y = fv[(le + 2) % 3];
+            for (index_t g : c.vertex_faces(x)) {
+                const auto& gv = c.face_vertices(g);
+                if (g != f && (gv[0] == y || gv[1] == y || gv[2] == y))
+                    return at("face", f) + "edge " + std::to_string(x) + "-" + std::to_string(y) +
+                           " is marked boundary but face " + std::to_string(g) + " shares it";
+            }
         }
     }
     return std::nullopt;
@@ -58,8 +76,11 @@ std::optional<std::string> check_vertex(const tri_mesh<Backend>& m, index_t v) {
         if (!c.vertex_alive(v)) return at("vertex", v) + "is dead but has faces";
         if (f >= m.face_slots() || !c.face_alive(f)) return at("vertex", v) + "lists a dead face";
         const auto& fv = c.face_vertices(f);
-        if (fv[0] != v && fv[1] != v && fv[2] != v) return at("vertex", v) + "lists a face without it";
+        if (fv[0] != v && fv[1] != v && fv[2] != v)
+            return at("vertex", v) + "lists a face without it";
     }
+    if constexpr (requires { { c.check_vertex(v) } -> std::same_as<std::optional<std::string>>; })
+        if (auto e = c.check_vertex(v)) return at("vertex", v) + *e; // the backend's own invariants
     if (n == 0) return std::nullopt;
     // Walk the fan from one face; it must reach every face of the star.
     auto t = m.tuple_from_vertex(v);
@@ -76,8 +97,8 @@ std::optional<std::string> check_vertex(const tri_mesh<Backend>& m, index_t v) {
         u = m.switch_edge(*g);
     }
     if (seen != n)
-        return at("vertex", v) + "its " + std::to_string(n) + " faces do not form one fan (walked " +
-               std::to_string(seen) + ")";
+        return at("vertex", v) + "its " + std::to_string(n) +
+               " faces do not form one fan (walked " + std::to_string(seen) + ")";
     return std::nullopt;
 }
 
@@ -104,7 +125,8 @@ template <class Backend, class Cells>
 std::optional<std::string> find_inconsistency_near(const tri_mesh<Backend>& m, const Cells& cells) {
     boost::container::small_vector<index_t, 64> verts;
     for (const auto& t : cells) {
-        if (!m.is_valid(t)) return detail::at("face", t.fid) + "returned by the operation is not valid";
+        if (!m.is_valid(t))
+            return detail::at("face", t.fid) + "returned by the operation is not valid";
         for (index_t v : m.face_vertices(t.fid))
             if (std::find(verts.begin(), verts.end(), v) == verts.end()) verts.push_back(v);
     }

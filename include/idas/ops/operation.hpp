@@ -68,9 +68,7 @@ struct op_context {
     std::int64_t face_delta = 0, vertex_delta = 0;
     std::int64_t pending_faces = 0, pending_vertices = 0;
 
-    op_context() {
-        conn.reserve(256), cells.reserve(64), origins.reserve(64), scratch.reserve(64);
-    }
+    op_context() { conn.reserve(256), cells.reserve(64), origins.reserve(64), scratch.reserve(64); }
 };
 
 /// Opens an undo scope on `ctx`; destroys as a rollback unless committed.
@@ -78,8 +76,11 @@ template <class Mesh>
 class transaction {
 public:
     transaction(Mesh& m, op_context<Mesh>& ctx)
-        : m_(m), ctx_(ctx), conn_mark_(ctx.conn.size()), attr_mark_(ctx.attrs.mark()),
-          previous_(detail::active_attribute_journal) {
+        : m_(m)
+        , ctx_(ctx)
+        , conn_mark_(ctx.conn.size())
+        , attr_mark_(ctx.attrs.mark())
+        , previous_(detail::active_attribute_journal) {
         detail::active_attribute_journal = &ctx.attrs;
     }
     transaction(const transaction&) = delete;
@@ -121,8 +122,10 @@ struct no_cache {};
 
 namespace detail {
 
-template <class T> struct is_optional : std::false_type {};
-template <class T> struct is_optional<std::optional<T>> : std::true_type {};
+template <class T>
+struct is_optional : std::false_type {};
+template <class T>
+struct is_optional<std::optional<T>> : std::true_type {};
 
 /// Runs spec.before and normalises its answer to std::optional<Cache>.
 template <class Op, class Spec, class Mesh, class Tuple>
@@ -132,7 +135,8 @@ auto run_before(Spec& spec, const Mesh& m, const Tuple& t) {
         if constexpr (is_optional<R>::value) {
             return spec.before(Op{}, m, t);
         } else {
-            static_assert(std::convertible_to<R, bool>, "before() must return bool or std::optional<Cache>");
+            static_assert(std::convertible_to<R, bool>,
+                          "before() must return bool or std::optional<Cache>");
             return spec.before(Op{}, m, t) ? std::optional<no_cache>(no_cache{}) : std::nullopt;
         }
     } else {
@@ -142,9 +146,13 @@ auto run_before(Spec& spec, const Mesh& m, const Tuple& t) {
 
 template <class Op, class Spec, class Mesh, class Result, class Cache>
 bool run_after(Spec& spec, Mesh& m, const Result& r, Cache& cache) {
-    if constexpr (requires { { spec.after(Op{}, m, r, cache) } -> std::convertible_to<bool>; })
+    if constexpr (requires {
+                      { spec.after(Op{}, m, r, cache) } -> std::convertible_to<bool>;
+                  })
         return spec.after(Op{}, m, r, cache);
-    else if constexpr (requires { { spec.after(Op{}, m, r) } -> std::convertible_to<bool>; })
+    else if constexpr (requires {
+                           { spec.after(Op{}, m, r) } -> std::convertible_to<bool>;
+                       })
         return spec.after(Op{}, m, r);
     else
         return true;
@@ -163,10 +171,11 @@ template <class I>
 concept invariant = std::copy_constructible<I> && std::default_initializable<typename I::state>;
 
 template <class I, class Op, class Mesh>
-concept invariant_for =
-    invariant<I> && (requires(const I& inv, const Mesh& m, typename I::state& s, typename Mesh::tuple t) {
+concept invariant_for = invariant<I> &&(
+    requires(const I& inv, const Mesh& m, typename I::state& s, typename Mesh::tuple t) {
         { inv.before(Op{}, m, t, s) } -> std::convertible_to<bool>;
-    } || requires(const I& inv, const Mesh& m, typename I::state& s, op_result<typename Mesh::tuple> r) {
+    } ||
+    requires(const I& inv, const Mesh& m, typename I::state& s, op_result<typename Mesh::tuple> r) {
         { inv.after(Op{}, m, r, s) } -> std::convertible_to<bool>;
     });
 
@@ -178,8 +187,9 @@ public:
 
     constexpr invariant_set() = default;
     template <class... Args>
-        requires(sizeof...(Args) == sizeof...(Is) && sizeof...(Is) > 0)
-    constexpr explicit invariant_set(Args... is) : invariants_(std::move(is)...) {}
+    requires(sizeof...(Args) == sizeof...(Is) &&
+             sizeof...(Is) > 0) constexpr explicit invariant_set(Args... is)
+        : invariants_(std::move(is)...) {}
 
     template <class Op, class Mesh, class Tuple>
     bool before(const Mesh& m, const Tuple& t, states& s) const {
@@ -201,13 +211,17 @@ private:
     }
     template <class Op, class I, class Mesh, class Tuple>
     static bool one_before(const I& inv, const Mesh& m, const Tuple& t, typename I::state& s) {
-        if constexpr (requires { inv.before(Op{}, m, t, s); }) return inv.before(Op{}, m, t, s);
-        else return true;
+        if constexpr (requires { inv.before(Op{}, m, t, s); })
+            return inv.before(Op{}, m, t, s);
+        else
+            return true;
     }
     template <class Op, class I, class Mesh, class Result>
     static bool one_after(const I& inv, const Mesh& m, const Result& r, typename I::state& s) {
-        if constexpr (requires { inv.after(Op{}, m, r, s); }) return inv.after(Op{}, m, r, s);
-        else return true;
+        if constexpr (requires { inv.after(Op{}, m, r, s); })
+            return inv.after(Op{}, m, r, s);
+        else
+            return true;
     }
 
     std::tuple<Is...> invariants_;
@@ -219,8 +233,10 @@ invariant_set(Is...) -> invariant_set<Is...>;
 namespace detail {
 template <class Spec>
 auto spec_invariants(const Spec& spec) {
-    if constexpr (requires { spec.invariants(); }) return spec.invariants();
-    else return invariant_set<>{};
+    if constexpr (requires { spec.invariants(); })
+        return spec.invariants();
+    else
+        return invariant_set<>{};
 }
 } // namespace detail
 

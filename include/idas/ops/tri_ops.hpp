@@ -17,9 +17,9 @@ namespace idas {
 namespace detail {
 
 template <class Op, class Mesh, class Spec, class Change>
-std::optional<op_result<typename Mesh::tuple>> run_tri_operation(Mesh& m, const typename Mesh::tuple& t,
-                                                                 Spec& spec, op_context<Mesh>& ctx,
-                                                                 Change&& change) {
+std::optional<op_result<typename Mesh::tuple>>
+run_tri_operation(Mesh& m, const typename Mesh::tuple& t, Spec& spec, op_context<Mesh>& ctx,
+                  Change&& change) {
     decltype(auto) inv = spec_invariants(spec);
     typename std::remove_cvref_t<decltype(inv)>::states st{};
     if (!inv.template before<Op>(std::as_const(m), t, st)) return std::nullopt;
@@ -57,8 +57,8 @@ inline tri_indices replaced(tri_indices f, index_t from, index_t to) {
 /// Splits the tuple's edge ab at a new vertex m. New faces: the (up to) four faces
 /// around m. Anchor: m, on the edge (a, m). `after` must set m's position.
 template <class Mesh, class Spec = no_spec>
-std::optional<op_result<typename Mesh::tuple>> split_edge(Mesh& m, const typename Mesh::tuple& t, Spec&& spec,
-                                                          op_context<Mesh>& ctx) {
+std::optional<op_result<typename Mesh::tuple>> split_edge(Mesh& m, const typename Mesh::tuple& t,
+                                                          Spec&& spec, op_context<Mesh>& ctx) {
     if (!m.is_valid(t)) return std::nullopt;
     return detail::run_tri_operation<op::split_edge>(m, t, spec, ctx, [&] {
         const auto [a, b] = m.edge_vertices(t);
@@ -84,8 +84,8 @@ std::optional<op_result<typename Mesh::tuple>> split_edge(Mesh& m, const typenam
 /// Refused unless the link condition holds. New faces: the whole new star of a.
 /// Anchor: a. `after` sets a's new position (and other attributes).
 template <class Mesh, class Spec = no_spec>
-std::optional<op_result<typename Mesh::tuple>> collapse_edge(Mesh& m, const typename Mesh::tuple& t, Spec&& spec,
-                                                             op_context<Mesh>& ctx) {
+std::optional<op_result<typename Mesh::tuple>> collapse_edge(Mesh& m, const typename Mesh::tuple& t,
+                                                             Spec&& spec, op_context<Mesh>& ctx) {
     if (!m.is_valid(t) || !link_condition_holds(m, t)) return std::nullopt;
     return detail::run_tri_operation<op::collapse_edge>(m, t, spec, ctx, [&] {
         const auto [a, b] = m.edge_vertices(t);
@@ -93,14 +93,17 @@ std::optional<op_result<typename Mesh::tuple>> collapse_edge(Mesh& m, const type
         faces_b.assign(m.vertex_faces(b).begin(), m.vertex_faces(b).end());
         for (index_t f : faces_b) {
             const auto& fv = m.face_vertices(f);
-            if (fv[0] == a || fv[1] == a || fv[2] == a) m.remove_face(f, ctx.conn), --ctx.pending_faces;
-            else m.set_face(f, detail::replaced(fv, b, a), ctx.conn);
+            if (fv[0] == a || fv[1] == a || fv[2] == a)
+                m.remove_face(f, ctx.conn), --ctx.pending_faces;
+            else
+                m.set_face(f, detail::replaced(fv, b, a), ctx.conn);
         }
         m.remove_vertex(b, ctx.conn);
         ctx.pending_vertices = -1;
         // a moves, so every face of its new star changes; moved-in faces were bumped already.
         for (index_t f : m.vertex_faces(a)) {
-            if (std::find(faces_b.begin(), faces_b.end(), f) == faces_b.end()) m.touch_face(f, ctx.conn);
+            if (std::find(faces_b.begin(), faces_b.end(), f) == faces_b.end())
+                m.touch_face(f, ctx.conn);
             detail::emit(m, ctx, a, f, f);
         }
         return m.tuple_in_face(a, ctx.cells.front().fid);
@@ -110,8 +113,8 @@ std::optional<op_result<typename Mesh::tuple>> collapse_edge(Mesh& m, const type
 /// Flips the interior edge ab of faces (a,b,c), (b,a,d) to cd. Refused on the boundary
 /// or if cd already exists. New faces: the two faces on cd. Anchor: c, on edge cd.
 template <class Mesh, class Spec = no_spec>
-std::optional<op_result<typename Mesh::tuple>> swap_edge(Mesh& m, const typename Mesh::tuple& t, Spec&& spec,
-                                                         op_context<Mesh>& ctx) {
+std::optional<op_result<typename Mesh::tuple>> swap_edge(Mesh& m, const typename Mesh::tuple& t,
+                                                         Spec&& spec, op_context<Mesh>& ctx) {
     if (!m.is_valid(t)) return std::nullopt;
     const auto g = m.switch_face(t);
     if (!g) return std::nullopt;
@@ -137,8 +140,8 @@ std::optional<op_result<typename Mesh::tuple>> swap_edge(Mesh& m, const typename
 /// Moves the tuple's vertex: `after` writes its new position. Connectivity is unchanged
 /// but every face of its star is renewed (new version). Anchor: the vertex.
 template <class Mesh, class Spec = no_spec>
-std::optional<op_result<typename Mesh::tuple>> smooth_vertex(Mesh& m, const typename Mesh::tuple& t, Spec&& spec,
-                                                             op_context<Mesh>& ctx) {
+std::optional<op_result<typename Mesh::tuple>> smooth_vertex(Mesh& m, const typename Mesh::tuple& t,
+                                                             Spec&& spec, op_context<Mesh>& ctx) {
     if (!m.is_valid(t)) return std::nullopt;
     return detail::run_tri_operation<op::smooth_vertex>(m, t, spec, ctx, [&] {
         const index_t v = t.vid;
@@ -157,7 +160,8 @@ auto apply(op::split_edge, Mesh& m, const typename Mesh::tuple& t, Spec& s, op_c
     return split_edge(m, t, s, c);
 }
 template <class Mesh, class Spec>
-auto apply(op::collapse_edge, Mesh& m, const typename Mesh::tuple& t, Spec& s, op_context<Mesh>& c) {
+auto apply(op::collapse_edge, Mesh& m, const typename Mesh::tuple& t, Spec& s,
+           op_context<Mesh>& c) {
     return collapse_edge(m, t, s, c);
 }
 template <class Mesh, class Spec>
@@ -165,7 +169,8 @@ auto apply(op::swap_edge, Mesh& m, const typename Mesh::tuple& t, Spec& s, op_co
     return swap_edge(m, t, s, c);
 }
 template <class Mesh, class Spec>
-auto apply(op::smooth_vertex, Mesh& m, const typename Mesh::tuple& t, Spec& s, op_context<Mesh>& c) {
+auto apply(op::smooth_vertex, Mesh& m, const typename Mesh::tuple& t, Spec& s,
+           op_context<Mesh>& c) {
     return smooth_vertex(m, t, s, c);
 }
 
