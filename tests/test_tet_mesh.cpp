@@ -186,7 +186,9 @@ TEST_CASE("tet mesh: invalid input is refused with a message naming the element"
 namespace {
 // Keys that survive renumbering: vertices are told apart by their positions.
 using pkey = std::array<double, 3>;
-pkey key(const vec3& p) { return {p.x, p.y, p.z}; }
+pkey key(const vec3& p) {
+    return {p.x, p.y, p.z};
+}
 template <std::size_t N>
 std::array<pkey, N> sorted_keys(const tet_mesh<>& m, const std::array<index_t, N>& vs) {
     std::array<pkey, N> k;
@@ -234,7 +236,8 @@ TEST_CASE("tet mesh: attributes of every kind follow their simplices through con
         m.for_each_tet([&](const tet_tuple& x) {
             tets[sorted_keys<4>(m, m.tet_vertices(x.tid))] = m.attribute(ta)[x.tid];
         });
-        m.for_each_vertex([&](const tet_tuple& x) { verts[key(m.position(x.vid))] = m.attribute(va)[x.vid]; });
+        m.for_each_vertex(
+            [&](const tet_tuple& x) { verts[key(m.position(x.vid))] = m.attribute(va)[x.vid]; });
     };
     snapshot();
     const auto e0 = edges;
@@ -274,4 +277,34 @@ TEST_CASE("tet mesh: copies are identical, stale tuples detected after edits") {
     std::vector<index_t> around;
     copy.edge_tets(e, around);
     CHECK(stale == int(around.size()));
+}
+
+TEST_CASE("tet mesh: without slot recycling removed slots stay dead; rollback stays exact") {
+    auto m = cube(2, false, 0.1, 6);
+    idas::test::tet_spec<> spec;
+    spec.attach(m);
+    m.set_slot_recycling(false);
+    const index_t slots0 = m.tet_slots();
+    // Collapse some interior edge, then split: the split may not reuse the freed slots.
+    bool collapsed = false;
+    for (const auto& e : m.get_edges())
+        if (!collapsed && m.is_valid(e) && collapse_edge(m, e, spec)) collapsed = true;
+    REQUIRE(collapsed);
+    const index_t after_collapse = m.tet_slots();
+    CHECK(after_collapse == slots0);
+    const auto before = m;
+    spec.fail_probability = 1; // every after() fails: the split is rolled back
+    std::mt19937 rng(1);
+    spec.rng = &rng;
+    CHECK_FALSE(split_edge(m, m.tuple_from_tet(m.get_tets().front().tid), spec));
+    CHECK(identical(before, m));
+    spec.fail_probability = 0;
+    auto r = split_edge(m, m.tuple_from_tet(m.get_tets().front().tid), spec);
+    REQUIRE(r);
+    CHECK(m.tet_slots() > after_collapse);
+    CHECK(m.tet_slots() - after_collapse == r->cells.size() / 2); // all new tets got fresh slots
+    CHECK_FALSE(find_inconsistency(m, true).has_value());
+    m.consolidate();
+    CHECK(m.tet_slots() == m.n_tets());
+    CHECK_FALSE(find_inconsistency(m, true).has_value());
 }

@@ -36,7 +36,8 @@ double min_quality(const tet_mesh<>& m, std::span<const tet_tuple> cells) {
 /// Two tets on the face (0, 1, 2), apexes 3 above and 4 below; `offset` moves the apexes
 /// sideways so the segment 34 can miss the triangle.
 tet_mesh<> bipyramid(double offset = 0) {
-    std::vector<vec3> V = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0.3 + offset, 0.3, 1}, {0.3 + offset, 0.3, -1}};
+    std::vector<vec3> V = {
+        {0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0.3 + offset, 0.3, 1}, {0.3 + offset, 0.3, -1}};
     std::vector<tet_indices> T = {{0, 1, 2, 3}, {0, 2, 1, 4}};
     for (auto& t : T) idas::test::orient_positively(V, t);
     return {V, T};
@@ -44,7 +45,8 @@ tet_mesh<> bipyramid(double offset = 0) {
 
 /// Best min-quality over all triangulations of the ring polygon of edge ab, by brute
 /// force: the reference for edge_removal's dynamic programme.
-double brute_force_best(const tet_mesh<>& m, index_t a, index_t b, const std::vector<index_t>& ring) {
+double brute_force_best(const tet_mesh<>& m, index_t a, index_t b,
+                        const std::vector<index_t>& ring) {
     const std::size_t n = ring.size();
     const auto p = m.positions();
     auto chord_ok = [&](std::size_t i, std::size_t k) {
@@ -135,7 +137,8 @@ TEST_CASE("tet ops: edge removal on rings of valence 3 to 7 matches brute force"
             // The boundary faces did not change.
             auto bf0 = snapshot.boundary_faces(), bf1 = m.boundary_faces();
             for (auto* bf : {&bf0, &bf1}) {
-                for (auto& f : *bf) std::rotate(f.begin(), std::min_element(f.begin(), f.end()), f.end());
+                for (auto& f : *bf)
+                    std::rotate(f.begin(), std::min_element(f.begin(), f.end()), f.end());
                 std::sort(bf->begin(), bf->end());
             }
             CHECK(bf0 == bf1);
@@ -220,7 +223,8 @@ TEST_CASE("tet ops: edge removal refuses when no triangulation is valid or a cho
     // A valence-4 ring whose polygon is reflex at x2 (seen from the a-b axis, which still
     // passes inside it): the diagonal x1-x3 would make the ear x1 x2 x3 invert, so only
     // the diagonal x0-x2 is possible.
-    std::vector<vec3> V = {{0, 0, 1}, {0, 0, -1}, {1, 0, 0}, {-0.3, 1, 0}, {-0.2, 0, 0}, {-0.3, -1, 0}};
+    std::vector<vec3> V = {{0, 0, 1},    {0, 0, -1},   {1, 0, 0},
+                           {-0.3, 1, 0}, {-0.2, 0, 0}, {-0.3, -1, 0}};
     std::vector<tet_indices> T;
     for (index_t i = 0; i < 4; ++i) {
         tet_indices t = {0, 1, index_t(2 + i), index_t(2 + (i + 1) % 4)};
@@ -278,7 +282,8 @@ TEST_CASE("tet ops: the 3D link condition and the boundary policy") {
     auto ring = edge_ring_mesh(5);
     CHECK_FALSE(link_condition_3d_holds(ring, 0, 1));
     // Two tets sharing only vertex 0: that vertex is non-manifold and never collapses.
-    std::vector<vec3> V = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {-1, 0, 0}, {0, -1, 0}, {0, 0, -1}};
+    std::vector<vec3> V = {{0, 0, 0},  {1, 0, 0},  {0, 1, 0}, {0, 0, 1},
+                           {-1, 0, 0}, {0, -1, 0}, {0, 0, -1}};
     std::vector<tet_indices> T = {{0, 1, 2, 3}, {0, 4, 5, 6}};
     for (auto& t : T) idas::test::orient_positively(V, t);
     tet_mesh<> bow(V, T);
@@ -314,7 +319,8 @@ TEST_CASE("tet ops: the 3D link condition and the boundary policy") {
     CHECK(accepted_interior > 0);
     CHECK_FALSE(find_inconsistency(m, true).has_value());
     CHECK(volume(m) == doctest::Approx(1.0));
-    for (index_t v : m.boundary_vertices()) CHECK_FALSE(smooth_vertex(m, m.tuple_from_vertex(v), keep));
+    for (index_t v : m.boundary_vertices())
+        CHECK_FALSE(smooth_vertex(m, m.tuple_from_vertex(v), keep));
 
     auto w = cube(3, false, 0.1, 7);
     tet_spec<true> free_spec;
@@ -346,8 +352,10 @@ TEST_CASE("tet ops: edge removal around interior edges of valence 3 to 7 in a cu
         const index_t t = rng() % m.tet_slots();
         if (!m.tet_alive(t)) continue;
         const auto u = m.tuple_from_face(t, std::uint8_t(rng() % 4));
-        if (i % 2) face_swap_23(m, u, spec);
-        else split_edge(m, u, spec);
+        if (i % 2)
+            face_swap_23(m, u, spec);
+        else
+            split_edge(m, u, spec);
     }
     REQUIRE_FALSE(find_inconsistency(m, true).has_value());
     std::map<std::size_t, int> removed;
@@ -390,7 +398,8 @@ TEST_CASE("tet ops: a spec's tet_quality steers edge removal") {
     struct avoid_chord {
         index_t x, y;
         double tet_quality(const tet_mesh<>& m, const tet_indices& t) const {
-            return tet_local::contains(t, x) && tet_local::contains(t, y) ? 0.01 : idas::tet_quality(m, t);
+            return tet_local::contains(t, x) && tet_local::contains(t, y) ? 0.01
+                                                                          : idas::tet_quality(m, t);
         }
     };
     auto m = edge_ring_mesh(4);
@@ -414,17 +423,21 @@ struct tet_sequence_stats {
 };
 
 const char* op_name(int k) {
-    static const char* names[] = {"split", "collapse", "smooth", "face_swap_23", "edge_swap_32", "edge_swap_44",
-                                  "edge_removal"};
+    static const char* names[] = {"split",        "collapse",     "smooth",      "face_swap_23",
+                                  "edge_swap_32", "edge_swap_44", "edge_removal"};
     return names[k];
 }
 
 template <bool Allow>
-tet_sequence_stats run_tet_sequence(tet_mesh<> m, unsigned seed, int n, int full_every, double fail_p,
-                                    bool compare_rollback) {
+tet_sequence_stats run_tet_sequence(tet_mesh<> m, unsigned seed, int n, int full_every,
+                                    double fail_p, bool compare_rollback) {
     const long chi0 = euler_characteristic(m);
     const auto topo0 = boundary_topology(m);
     const double volume0 = volume(m);
+    // The live-count deltas the operations report (for executors) match the real counts.
+    const auto& ctx = thread_context<tet_mesh<>>();
+    const std::int64_t tets0 = std::int64_t(m.n_tets()) - ctx.face_delta;
+    const std::int64_t verts0 = std::int64_t(m.n_vertices()) - ctx.vertex_delta;
     std::mt19937 rng(seed);
     tet_spec<Allow> spec;
     spec.attach(m);
@@ -450,13 +463,27 @@ tet_sequence_stats run_tet_sequence(tet_mesh<> m, unsigned seed, int n, int full
         if (compare_rollback) copy = m;
         std::optional<op_result<tet_tuple>> r;
         switch (kind) {
-        case 0: r = split_edge(m, u, spec); break;
-        case 1: r = collapse_edge(m, u, spec); break;
-        case 2: r = smooth_vertex(m, u, spec); break;
-        case 3: r = face_swap_23(m, u, spec); break;
-        case 4: r = edge_swap_32(m, u, spec); break;
-        case 5: r = edge_swap_44(m, u, spec); break;
-        default: r = edge_removal(m, u, spec); break;
+        case 0:
+            r = split_edge(m, u, spec);
+            break;
+        case 1:
+            r = collapse_edge(m, u, spec);
+            break;
+        case 2:
+            r = smooth_vertex(m, u, spec);
+            break;
+        case 3:
+            r = face_swap_23(m, u, spec);
+            break;
+        case 4:
+            r = edge_swap_32(m, u, spec);
+            break;
+        case 5:
+            r = edge_swap_44(m, u, spec);
+            break;
+        default:
+            r = edge_removal(m, u, spec);
+            break;
         }
         if (r) {
             ++st.accepted[kind];
@@ -465,12 +492,16 @@ tet_sequence_stats run_tet_sequence(tet_mesh<> m, unsigned seed, int n, int full
             REQUIRE_MESSAGE(!e, "after op " << i << " " << op_name(kind) << ": " << *e);
         } else {
             ++st.refused[kind];
-            if (copy) REQUIRE_MESSAGE(identical(*copy, m), "op " << i << " " << op_name(kind) << " did not roll back exactly");
+            if (copy)
+                REQUIRE_MESSAGE(identical(*copy, m),
+                                "op " << i << " " << op_name(kind) << " did not roll back exactly");
         }
         if ((i + 1) % full_every == 0 || i + 1 == n) {
             const auto e = find_inconsistency(m, true);
             REQUIRE_MESSAGE(!e, "after op " << i << ": " << *e);
             REQUIRE(euler_characteristic(m) == chi0);
+            REQUIRE(std::int64_t(m.n_tets()) == tets0 + ctx.face_delta);
+            REQUIRE(std::int64_t(m.n_vertices()) == verts0 + ctx.vertex_delta);
             const auto topo = boundary_topology(m);
             REQUIRE(topo.euler_characteristic == topo0.euler_characteristic);
             REQUIRE(topo.components == topo0.components);
@@ -483,8 +514,11 @@ tet_sequence_stats run_tet_sequence(tet_mesh<> m, unsigned seed, int n, int full
 
 void check_every_kind(const tet_sequence_stats& st, bool expect_all) {
     for (int k = 0; k < 7; ++k) {
-        INFO(std::string(op_name(k)) << ": " << st.accepted[k] << " accepted, " << st.refused[k] << " refused");
-        if (std::getenv("IDAS_TET_STATS")) MESSAGE(std::string(op_name(k)) << ": " << st.accepted[k] << " accepted, " << st.refused[k] << " refused");
+        INFO(std::string(op_name(k))
+             << ": " << st.accepted[k] << " accepted, " << st.refused[k] << " refused");
+        if (std::getenv("IDAS_TET_STATS"))
+            MESSAGE(std::string(op_name(k))
+                    << ": " << st.accepted[k] << " accepted, " << st.refused[k] << " refused");
         if (expect_all) CHECK(st.accepted[k] > 0);
     }
 }
@@ -518,9 +552,12 @@ TEST_CASE("tet ops: stale tuples are detected after random edits") {
         index_t t = rng() % m.tet_slots();
         if (!m.tet_alive(t)) continue;
         const auto u = m.tuple_from_edge(t, std::uint8_t(rng() % 6));
-        if (i % 3 == 0) split_edge(m, u, spec);
-        else if (i % 3 == 1) collapse_edge(m, u, spec);
-        else edge_removal(m, u, spec);
+        if (i % 3 == 0)
+            split_edge(m, u, spec);
+        else if (i % 3 == 1)
+            collapse_edge(m, u, spec);
+        else
+            edge_removal(m, u, spec);
     }
     int stale = 0;
     for (const auto& t : all) {

@@ -45,17 +45,26 @@ cube_arrays(int n, bool five = false, double jitter = 0, unsigned seed = 1) {
         for (int j = 0; j < n; ++j)
             for (int i = 0; i < n; ++i) {
                 // Corner c has offsets (c & 1, c >> 1 & 1, c >> 2 & 1).
-                auto c = [&](int bits) { return id(i + (bits & 1), j + (bits >> 1 & 1), k + (bits >> 2 & 1)); };
+                auto c = [&](int bits) {
+                    return id(i + (bits & 1), j + (bits >> 1 & 1), k + (bits >> 2 & 1));
+                };
                 std::vector<tet_indices> cell;
                 if (!five) {
                     const int axes[6][2] = {{1, 2}, {1, 4}, {2, 1}, {2, 4}, {4, 1}, {4, 2}};
-                    for (const auto& ax : axes) cell.push_back({c(0), c(ax[0]), c(ax[0] | ax[1]), c(7)});
+                    for (const auto& ax : axes)
+                        cell.push_back({c(0), c(ax[0]), c(ax[0] | ax[1]), c(7)});
                 } else if ((i + j + k) % 2 == 0) {
-                    cell = {{c(0), c(3), c(5), c(6)}, {c(1), c(0), c(3), c(5)}, {c(2), c(0), c(3), c(6)},
-                            {c(4), c(0), c(5), c(6)}, {c(7), c(3), c(5), c(6)}};
+                    cell = {{c(0), c(3), c(5), c(6)},
+                            {c(1), c(0), c(3), c(5)},
+                            {c(2), c(0), c(3), c(6)},
+                            {c(4), c(0), c(5), c(6)},
+                            {c(7), c(3), c(5), c(6)}};
                 } else {
-                    cell = {{c(1), c(2), c(4), c(7)}, {c(0), c(1), c(2), c(4)}, {c(3), c(1), c(2), c(7)},
-                            {c(5), c(1), c(4), c(7)}, {c(6), c(2), c(4), c(7)}};
+                    cell = {{c(1), c(2), c(4), c(7)},
+                            {c(0), c(1), c(2), c(4)},
+                            {c(3), c(1), c(2), c(7)},
+                            {c(5), c(1), c(4), c(7)},
+                            {c(6), c(2), c(4), c(7)}};
                 }
                 for (auto& t : cell) {
                     orient_positively(V, t);
@@ -104,7 +113,9 @@ struct tet_spec {
         face_mark = m.add_face_attribute<int>("face_mark", 0);
         generation = m.add_tet_attribute<int>("generation", 0);
     }
-    bool fail_now() { return rng && std::uniform_real_distribution<double>(0, 1)(*rng) < fail_probability; }
+    bool fail_now() {
+        return rng && std::uniform_real_distribution<double>(0, 1)(*rng) < fail_probability;
+    }
 
     void write_cells(tet_mesh<>& m, const op_result<tet_tuple>& r) {
         if (!edge_length.valid()) return; // not attached to a mesh
@@ -120,7 +131,8 @@ struct tet_spec {
                 const auto [a, b] = m.edge_vertices(e);
                 len.set(m.eid(e), static_cast<float>(norm(p[a] - p[b])));
             }
-            for (std::uint8_t lf = 0; lf < 4; ++lf) mark.set(m.fid(m.tuple_from_face(t.tid, lf)), int(i));
+            for (std::uint8_t lf = 0; lf < 4; ++lf)
+                mark.set(m.fid(m.tuple_from_face(t.tid, lf)), int(i));
         }
     }
 
@@ -138,8 +150,10 @@ struct tet_spec {
         return (m.position(a) + m.position(b)) * 0.5;
     }
     template <class Op>
-        requires(std::is_same_v<Op, op::split_edge> || std::is_same_v<Op, op::collapse_edge>)
-    bool after(Op, tet_mesh<>& m, const op_result<tet_tuple>& r, vec3& new_position) {
+    requires(std::is_same_v<Op, op::split_edge> ||
+             std::is_same_v<Op, op::collapse_edge>) bool after(Op, tet_mesh<>& m,
+                                                               const op_result<tet_tuple>& r,
+                                                               vec3& new_position) {
         m.positions().set(r.anchor.vid, new_position);
         write_cells(m, r);
         return !fail_now();
@@ -154,9 +168,10 @@ struct tet_spec {
         return !fail_now();
     }
     template <class Op>
-        requires(std::is_same_v<Op, op::face_swap_23> || std::is_same_v<Op, op::edge_swap_32> ||
-                 std::is_same_v<Op, op::edge_swap_44> || std::is_same_v<Op, op::edge_removal>)
-    bool after(Op, tet_mesh<>& m, const op_result<tet_tuple>& r) {
+    requires(std::is_same_v<Op, op::face_swap_23> || std::is_same_v<Op, op::edge_swap_32> ||
+             std::is_same_v<Op, op::edge_swap_44> ||
+             std::is_same_v<Op, op::edge_removal>) bool after(Op, tet_mesh<>& m,
+                                                              const op_result<tet_tuple>& r) {
         write_cells(m, r);
         return !fail_now();
     }

@@ -31,8 +31,8 @@ namespace detail {
 
 /// Nodes per element of Gmsh's element types; 0 for types this table does not know.
 inline int msh_nodes_per_element(std::int64_t type) noexcept {
-    static constexpr int table[] = {0,  2,  3,  4,  4, 8,  6,  5,  3,  6,  9,  10, 27, 18, 14, 1,
-                                    8,  20, 15, 13, 9, 10, 12, 15, 15, 21, 4,  5,  6,  20, 35, 56};
+    static constexpr int table[] = {0, 2,  3,  4,  4, 8,  6,  5,  3,  6,  9, 10, 27, 18, 14, 1,
+                                    8, 20, 15, 13, 9, 10, 12, 15, 15, 21, 4, 5,  6,  20, 35, 56};
     if (type >= 1 && type <= 31) return table[type];
     if (type == 92) return 64;
     if (type == 93) return 125;
@@ -91,7 +91,8 @@ private:
     // ---- errors ----
     [[noreturn]] void fail_here(const std::string& what) const {
         if (binary_) fail(source_, "byte " + std::to_string(pos_) + ": " + what);
-        const auto line = 1 + std::count(data_.begin(), data_.begin() + static_cast<std::ptrdiff_t>(pos_), '\n');
+        const auto line =
+            1 + std::count(data_.begin(), data_.begin() + static_cast<std::ptrdiff_t>(pos_), '\n');
         fail_at_line(source_, static_cast<std::size_t>(line), what);
     }
     [[noreturn]] void truncated(const std::string& where) const {
@@ -134,9 +135,12 @@ private:
         if (t.empty()) truncated(std::string("where ") + what + " was expected");
         double v = 0;
         switch (parse_double(t, v)) {
-        case parse_status::ok: return v;
-        case parse_status::out_of_range: fail_here(std::string(what) + " " + quoted(t) + " is out of range");
-        case parse_status::not_a_number: break;
+        case parse_status::ok:
+            return v;
+        case parse_status::out_of_range:
+            fail_here(std::string(what) + " " + quoted(t) + " is out of range");
+        case parse_status::not_a_number:
+            break;
         }
         fail_here(std::string(what) + " " + quoted(t) + " is not a number");
     }
@@ -149,7 +153,8 @@ private:
     void skip_section(std::string_view name) {
         const std::string want = "$End" + std::string(name);
         const std::size_t at = data_.find(want, pos_);
-        if (at == std::string_view::npos) truncated("inside section $" + std::string(name) + " (no " + want + ")");
+        if (at == std::string_view::npos)
+            truncated("inside section $" + std::string(name) + " (no " + want + ")");
         pos_ = at + want.size();
     }
     /// Tokens of one element line (ASCII files keep one element per line).
@@ -157,10 +162,11 @@ private:
     void line_tokens(Out& out, std::uint64_t done, std::uint64_t total) {
         skip_space();
         if (pos_ >= data_.size())
-            truncated("after " + std::to_string(done) + " of " + std::to_string(total) + " elements");
+            truncated("after " + std::to_string(done) + " of " + std::to_string(total) +
+                      " elements");
         if (data_[pos_] == '$')
-            fail_here("the $Elements header announces " + std::to_string(total) + " elements but only " +
-                      std::to_string(done) + " are listed");
+            fail_here("the $Elements header announces " + std::to_string(total) +
+                      " elements but only " + std::to_string(done) + " are listed");
         out.clear();
         std::string_view l = rest_of_line();
         for (std::string_view t = next_token(l); !t.empty(); t = next_token(l)) {
@@ -185,7 +191,9 @@ private:
     /// Binary payloads start right after one line break (the payload itself may begin
     /// with bytes that look like white space).
     void line_break_before_binary() {
-        while (pos_ < data_.size() && (data_[pos_] == ' ' || data_[pos_] == '\t' || data_[pos_] == '\r')) ++pos_;
+        while (pos_ < data_.size() &&
+               (data_[pos_] == ' ' || data_[pos_] == '\t' || data_[pos_] == '\r'))
+            ++pos_;
         if (pos_ >= data_.size()) truncated("before binary data");
         if (data_[pos_] != '\n') fail_here("expected a line break before binary data");
         ++pos_;
@@ -194,8 +202,9 @@ private:
     void need(std::uint64_t n, std::size_t bytes_each, const char* what) const {
         const std::size_t left = data_.size() - pos_;
         if (n > left / bytes_each)
-            fail(source_, "byte " + std::to_string(pos_) + ": truncated or corrupt: the header announces " +
-                              std::to_string(n) + " " + what + " (" + std::to_string(bytes_each) +
+            fail(source_, "byte " + std::to_string(pos_) +
+                              ": truncated or corrupt: the header announces " + std::to_string(n) +
+                              " " + what + " (" + std::to_string(bytes_each) +
                               " bytes each) but only " + std::to_string(left) + " bytes remain");
     }
 
@@ -206,13 +215,19 @@ private:
         const std::string_view type = token();
         const std::string_view size = token();
         if (size.empty()) truncated("inside $MeshFormat");
-        if (version == "2.2" || version == "2.1" || version == "2.0" || version == "2") v41_ = false;
-        else if (version == "4.1") v41_ = true;
+        if (version == "2.2" || version == "2.1" || version == "2.0" || version == "2")
+            v41_ = false;
+        else if (version == "4.1")
+            v41_ = true;
         else if (version == "4" || version == "4.0")
-            fail_here("MSH version 4.0 is not supported (only 2.2 and 4.1); re-save the file as 4.1");
-        else fail_here("MSH version " + quoted(version) + " is not supported (only 2.2 and 4.1)");
-        if (type == "1") binary_ = true;
-        else if (type != "0") fail_here("file type " + quoted(type) + " is neither 0 (ASCII) nor 1 (binary)");
+            fail_here(
+                "MSH version 4.0 is not supported (only 2.2 and 4.1); re-save the file as 4.1");
+        else
+            fail_here("MSH version " + quoted(version) + " is not supported (only 2.2 and 4.1)");
+        if (type == "1")
+            binary_ = true;
+        else if (type != "0")
+            fail_here("file type " + quoted(type) + " is neither 0 (ASCII) nor 1 (binary)");
         if (size != "8") fail_here("data size " + quoted(size) + " is not supported (only 8)");
         if (binary_) {
             line_break_before_binary();
@@ -228,7 +243,8 @@ private:
 
     void add_node(std::uint64_t tag, const vec3& p) {
         if (vertices_.size() >= invalid_index - 1) fail(source_, "too many nodes");
-        if (!is_finite(p)) fail_here("node " + std::to_string(tag) + " has a non-finite coordinate");
+        if (!is_finite(p))
+            fail_here("node " + std::to_string(tag) + " has a non-finite coordinate");
         tags_.push_back({tag, static_cast<index_t>(vertices_.size())});
         vertices_.push_back(p);
     }
@@ -284,16 +300,21 @@ private:
             std::uint64_t n = 0;
             if (binary_) {
                 dim = bin<std::int32_t>("a node block"), bin<std::int32_t>("a node block");
-                parametric = bin<std::int32_t>("a node block"), n = bin<std::uint64_t>("a node block");
+                parametric = bin<std::int32_t>("a node block"),
+                n = bin<std::uint64_t>("a node block");
             } else {
                 dim = integer("entity dimension"), integer("entity tag");
                 parametric = integer("parametric flag"), n = count("number of nodes in block");
             }
-            if (dim < 0 || dim > 3) fail_here("node block " + std::to_string(b) + " has dimension " + std::to_string(dim));
+            if (dim < 0 || dim > 3)
+                fail_here("node block " + std::to_string(b) + " has dimension " +
+                          std::to_string(dim));
             if (parametric != 0 && parametric != 1)
-                fail_here("node block " + std::to_string(b) + " has parametric flag " + std::to_string(parametric));
+                fail_here("node block " + std::to_string(b) + " has parametric flag " +
+                          std::to_string(parametric));
             if (n > total - read)
-                fail_here("the $Nodes header announces " + std::to_string(total) + " nodes but the blocks hold more");
+                fail_here("the $Nodes header announces " + std::to_string(total) +
+                          " nodes but the blocks hold more");
             const std::size_t values = 3 + static_cast<std::size_t>(parametric ? dim : 0);
             // Tags first, then coordinates: remember where this block's tags start.
             const std::size_t first = tags_.size();
@@ -310,15 +331,16 @@ private:
                 }
                 const auto tag = tags_[first + i].first;
                 if (vertices_.size() >= invalid_index - 1) fail(source_, "too many nodes");
-                if (!is_finite(p)) fail_here("node " + std::to_string(tag) + " has a non-finite coordinate");
+                if (!is_finite(p))
+                    fail_here("node " + std::to_string(tag) + " has a non-finite coordinate");
                 tags_[first + i].second = static_cast<index_t>(vertices_.size());
                 vertices_.push_back(p);
             }
             read += n;
         }
         if (read != total)
-            fail_here("the $Nodes header announces " + std::to_string(total) + " nodes but the blocks hold " +
-                      std::to_string(read));
+            fail_here("the $Nodes header announces " + std::to_string(total) +
+                      " nodes but the blocks hold " + std::to_string(read));
     }
 
     void add_tet(std::uint64_t element, const std::array<std::uint64_t, 4>& nodes) {
@@ -337,12 +359,16 @@ private:
                 const auto n = bin<std::int32_t>("an element header");
                 const auto ntags = bin<std::int32_t>("an element header");
                 const int nn = msh_nodes_per_element(type);
-                if (nn == 0) fail_here("element type " + std::to_string(type) + " is unknown, so it cannot be skipped");
+                if (nn == 0)
+                    fail_here("element type " + std::to_string(type) +
+                              " is unknown, so it cannot be skipped");
                 if (n <= 0 || static_cast<std::uint64_t>(n) > m - read)
-                    fail_here("element block of " + std::to_string(n) + " elements does not fit the header's " +
-                              std::to_string(m));
-                if (ntags < 0 || ntags > 1000) fail_here("element block has " + std::to_string(ntags) + " tags");
-                const std::size_t each = 4 * (1 + static_cast<std::size_t>(ntags) + static_cast<std::size_t>(nn));
+                    fail_here("element block of " + std::to_string(n) +
+                              " elements does not fit the header's " + std::to_string(m));
+                if (ntags < 0 || ntags > 1000)
+                    fail_here("element block has " + std::to_string(ntags) + " tags");
+                const std::size_t each =
+                    4 * (1 + static_cast<std::size_t>(ntags) + static_cast<std::size_t>(nn));
                 need(static_cast<std::uint64_t>(n), each, "elements");
                 for (std::int32_t i = 0; i < n; ++i) {
                     const auto number = bin<std::int32_t>("an element");
@@ -355,7 +381,9 @@ private:
                     std::array<std::uint64_t, 4> nodes{};
                     for (auto& v : nodes) {
                         const auto tag = bin<std::int32_t>("an element");
-                        if (tag < 0) fail_here("element " + std::to_string(number) + " has negative node tag " + std::to_string(tag));
+                        if (tag < 0)
+                            fail_here("element " + std::to_string(number) +
+                                      " has negative node tag " + std::to_string(tag));
                         v = static_cast<std::uint64_t>(tag);
                     }
                     add_tet(static_cast<std::uint64_t>(number), nodes);
@@ -368,13 +396,18 @@ private:
         element_values values;
         for (std::uint64_t k = 0; k < m; ++k) {
             line_tokens(values, k, m);
-            if (values.size() < 3) fail_here("element line has " + std::to_string(values.size()) + " values");
+            if (values.size() < 3)
+                fail_here("element line has " + std::to_string(values.size()) + " values");
             const std::int64_t number = values[0], type = values[1], ntags = values[2];
             const int nn = msh_nodes_per_element(type);
-            if (ntags < 0 || (nn && values.size() != 3 + static_cast<std::size_t>(ntags) + static_cast<std::size_t>(nn)) ||
+            if (ntags < 0 ||
+                (nn && values.size() !=
+                           3 + static_cast<std::size_t>(ntags) + static_cast<std::size_t>(nn)) ||
                 (!nn && values.size() < 3 + static_cast<std::size_t>(ntags)))
-                fail_line_of_element(number, "has " + std::to_string(values.size()) + " values, which does not fit type " +
-                                                 std::to_string(type) + " with " + std::to_string(ntags) + " tags");
+                fail_line_of_element(number, "has " + std::to_string(values.size()) +
+                                                 " values, which does not fit type " +
+                                                 std::to_string(type) + " with " +
+                                                 std::to_string(ntags) + " tags");
             if (type != msh_tet4) {
                 ++skipped_;
                 continue;
@@ -404,17 +437,22 @@ private:
             std::uint64_t n = 0;
             if (binary_) {
                 bin<std::int32_t>("an element block"), bin<std::int32_t>("an element block");
-                type = bin<std::int32_t>("an element block"), n = bin<std::uint64_t>("an element block");
+                type = bin<std::int32_t>("an element block"),
+                n = bin<std::uint64_t>("an element block");
             } else {
                 integer("entity dimension"), integer("entity tag");
                 type = integer("element type"), n = count("number of elements in block");
-                if (!is_blank(rest_of_line())) fail_here("unexpected text after an element block header");
+                if (!is_blank(rest_of_line()))
+                    fail_here("unexpected text after an element block header");
             }
             if (n > total - read)
-                fail_here("the $Elements header announces " + std::to_string(total) + " elements but the blocks hold more");
+                fail_here("the $Elements header announces " + std::to_string(total) +
+                          " elements but the blocks hold more");
             const int nn = msh_nodes_per_element(type);
             if (binary_) {
-                if (nn == 0) fail_here("element type " + std::to_string(type) + " is unknown, so it cannot be skipped");
+                if (nn == 0)
+                    fail_here("element type " + std::to_string(type) +
+                              " is unknown, so it cannot be skipped");
                 const std::size_t each = 8 * (1 + static_cast<std::size_t>(nn));
                 need(n, each, "elements");
                 for (std::uint64_t i = 0; i < n; ++i) {
@@ -431,9 +469,11 @@ private:
             } else {
                 for (std::uint64_t i = 0; i < n; ++i) {
                     line_tokens(values, read + i, total);
-                    if (values.empty() || values[0] < 0 || (nn && values.size() != 1 + static_cast<std::size_t>(nn)))
+                    if (values.empty() || values[0] < 0 ||
+                        (nn && values.size() != 1 + static_cast<std::size_t>(nn)))
                         fail_line_of_element(values.empty() ? -1 : values[0],
-                                             "has " + std::to_string(values.size()) + " values, which does not fit type " +
+                                             "has " + std::to_string(values.size()) +
+                                                 " values, which does not fit type " +
                                                  std::to_string(type));
                     if (type != msh_tet4) {
                         ++skipped_;
@@ -445,8 +485,8 @@ private:
             read += n;
         }
         if (read != total)
-            fail_here("the $Elements header announces " + std::to_string(total) + " elements but the blocks hold " +
-                      std::to_string(read));
+            fail_here("the $Elements header announces " + std::to_string(total) +
+                      " elements but the blocks hold " + std::to_string(read));
     }
 
     // Element values are stored in a reused vector: one line at a time.
@@ -460,7 +500,8 @@ private:
         std::array<std::uint64_t, 4> nodes{};
         for (std::size_t k = 0; k < 4; ++k) {
             if (values[first + k] < 0)
-                fail_line_of_element(number, "has negative node tag " + std::to_string(values[first + k]));
+                fail_line_of_element(number,
+                                     "has negative node tag " + std::to_string(values[first + k]));
             nodes[k] = static_cast<std::uint64_t>(values[first + k]);
         }
         add_tet(static_cast<std::uint64_t>(number), nodes);
@@ -481,8 +522,10 @@ private:
             for (const auto& [tag, i] : sorted) dense[static_cast<std::size_t>(tag)] = i;
         }
         const auto lookup = [&](std::uint64_t tag) -> index_t {
-            if (!dense.empty()) return tag < dense.size() ? dense[static_cast<std::size_t>(tag)] : invalid_index;
-            const auto it = std::lower_bound(sorted.begin(), sorted.end(), std::pair<std::uint64_t, index_t>{tag, 0});
+            if (!dense.empty())
+                return tag < dense.size() ? dense[static_cast<std::size_t>(tag)] : invalid_index;
+            const auto it = std::lower_bound(sorted.begin(), sorted.end(),
+                                             std::pair<std::uint64_t, index_t>{tag, 0});
             return it != sorted.end() && it->first == tag ? it->second : invalid_index;
         };
         out.tets.reserve(tet_nodes_.size());
@@ -491,11 +534,13 @@ private:
             for (int k = 0; k < 4; ++k) {
                 tv[k] = lookup(tet_nodes_[t][k]);
                 if (tv[k] == invalid_index)
-                    fail(source_, "element " + std::to_string(tet_elements_[t]) + " references node " +
-                                      std::to_string(tet_nodes_[t][k]) + ", which is not defined");
+                    fail(source_, "element " + std::to_string(tet_elements_[t]) +
+                                      " references node " + std::to_string(tet_nodes_[t][k]) +
+                                      ", which is not defined");
                 for (int j = 0; j < k; ++j)
                     if (tv[j] == tv[k])
-                        fail(source_, "element " + std::to_string(tet_elements_[t]) + " is degenerate: it uses node " +
+                        fail(source_, "element " + std::to_string(tet_elements_[t]) +
+                                          " is degenerate: it uses node " +
                                           std::to_string(tet_nodes_[t][k]) + " twice");
             }
             out.tets.push_back(tv);
@@ -510,8 +555,8 @@ private:
     bool have_nodes_ = false, have_elements_ = false;
     std::vector<vec3> vertices_;
     std::vector<std::pair<std::uint64_t, index_t>> tags_; // (tag, index) in file order
-    std::vector<std::array<std::uint64_t, 4>> tet_nodes_;  // node tags, resolved at the end
-    std::vector<std::uint64_t> tet_elements_;              // element tags, for messages
+    std::vector<std::array<std::uint64_t, 4>> tet_nodes_; // node tags, resolved at the end
+    std::vector<std::uint64_t> tet_elements_;             // element tags, for messages
     std::size_t skipped_ = 0;
 };
 
@@ -531,7 +576,8 @@ inline void flush_if_large(std::ostream& os, std::string& buf) {
     }
 }
 
-inline void write_msh_unchecked(std::ostream& os, const volume& v, msh_version version, encoding enc) {
+inline void write_msh_unchecked(std::ostream& os, const volume& v, msh_version version,
+                                encoding enc) {
     const std::uint64_t n = v.vertices.size(), m = v.tets.size();
     if (enc == encoding::ascii) {
         text_sink out(os);
@@ -553,16 +599,18 @@ inline void write_msh_unchecked(std::ostream& os, const volume& v, msh_version v
             vec3 lo{}, hi{};
             if (n) lo = hi = v.vertices[0];
             for (const vec3& p : v.vertices)
-                for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], p[k]), hi[k] = std::max(hi[k], p[k]);
+                for (int k = 0; k < 3; ++k)
+                    lo[k] = std::min(lo[k], p[k]), hi[k] = std::max(hi[k], p[k]);
             out << "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n";
             // One volume entity holds everything.
-            out << "$Entities\n0 0 0 1\n1 " << lo.x << ' ' << lo.y << ' ' << lo.z << ' ' << hi.x << ' ' << hi.y
-                << ' ' << hi.z << " 0 0\n$EndEntities\n";
-            out << "$Nodes\n1 " << n << ' ' << std::uint64_t{n ? 1u : 0u} << ' ' << n << "\n3 1 0 " << n << '\n';
+            out << "$Entities\n0 0 0 1\n1 " << lo.x << ' ' << lo.y << ' ' << lo.z << ' ' << hi.x
+                << ' ' << hi.y << ' ' << hi.z << " 0 0\n$EndEntities\n";
+            out << "$Nodes\n1 " << n << ' ' << std::uint64_t{n ? 1u : 0u} << ' ' << n << "\n3 1 0 "
+                << n << '\n';
             for (std::uint64_t i = 0; i < n; ++i) out << (i + 1) << '\n';
             for (const vec3& p : v.vertices) out << p.x << ' ' << p.y << ' ' << p.z << '\n';
-            out << "$EndNodes\n$Elements\n1 " << m << ' ' << std::uint64_t{m ? 1u : 0u} << ' ' << m << "\n3 1 4 "
-                << m << '\n';
+            out << "$EndNodes\n$Elements\n1 " << m << ' ' << std::uint64_t{m ? 1u : 0u} << ' ' << m
+                << "\n3 1 4 " << m << '\n';
             for (std::uint64_t t = 0; t < m; ++t) {
                 out << (t + 1);
                 for (index_t x : v.tets[t]) out << ' ' << std::uint64_t{x} + 1;
@@ -581,7 +629,8 @@ inline void write_msh_unchecked(std::ostream& os, const volume& v, msh_version v
         buf += "\n$EndMeshFormat\n$Nodes\n" + std::to_string(n) + "\n";
         for (std::uint64_t i = 0; i < n; ++i) {
             put_binary(buf, static_cast<std::int32_t>(i + 1));
-            put_binary(buf, v.vertices[i].x), put_binary(buf, v.vertices[i].y), put_binary(buf, v.vertices[i].z);
+            put_binary(buf, v.vertices[i].x), put_binary(buf, v.vertices[i].y),
+                put_binary(buf, v.vertices[i].z);
             flush_if_large(os, buf);
         }
         buf += "\n$EndNodes\n$Elements\n" + std::to_string(m) + "\n";
@@ -604,13 +653,16 @@ inline void write_msh_unchecked(std::ostream& os, const volume& v, msh_version v
         vec3 lo{}, hi{};
         if (n) lo = hi = v.vertices[0];
         for (const vec3& p : v.vertices)
-            for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], p[k]), hi[k] = std::max(hi[k], p[k]);
+            for (int k = 0; k < 3; ++k)
+                lo[k] = std::min(lo[k], p[k]), hi[k] = std::max(hi[k], p[k]);
         put_binary<std::int32_t>(buf, 1);
         for (double x : {lo.x, lo.y, lo.z, hi.x, hi.y, hi.z}) put_binary(buf, x);
         put_binary<std::uint64_t>(buf, 0), put_binary<std::uint64_t>(buf, 0);
         buf += "\n$EndEntities\n$Nodes\n";
-        for (std::uint64_t c : {std::uint64_t{1}, n, std::uint64_t{n ? 1u : 0u}, n}) put_binary(buf, c);
-        put_binary<std::int32_t>(buf, 3), put_binary<std::int32_t>(buf, 1), put_binary<std::int32_t>(buf, 0);
+        for (std::uint64_t c : {std::uint64_t{1}, n, std::uint64_t{n ? 1u : 0u}, n})
+            put_binary(buf, c);
+        put_binary<std::int32_t>(buf, 3), put_binary<std::int32_t>(buf, 1),
+            put_binary<std::int32_t>(buf, 0);
         put_binary(buf, n);
         for (std::uint64_t i = 0; i < n; ++i) {
             put_binary(buf, i + 1);
@@ -621,8 +673,10 @@ inline void write_msh_unchecked(std::ostream& os, const volume& v, msh_version v
             flush_if_large(os, buf);
         }
         buf += "\n$EndNodes\n$Elements\n";
-        for (std::uint64_t c : {std::uint64_t{1}, m, std::uint64_t{m ? 1u : 0u}, m}) put_binary(buf, c);
-        put_binary<std::int32_t>(buf, 3), put_binary<std::int32_t>(buf, 1), put_binary<std::int32_t>(buf, 4);
+        for (std::uint64_t c : {std::uint64_t{1}, m, std::uint64_t{m ? 1u : 0u}, m})
+            put_binary(buf, c);
+        put_binary<std::int32_t>(buf, 3), put_binary<std::int32_t>(buf, 1),
+            put_binary<std::int32_t>(buf, 4);
         put_binary(buf, m);
         for (std::uint64_t t = 0; t < m; ++t) {
             put_binary(buf, t + 1);
@@ -654,10 +708,11 @@ inline void write_msh(std::ostream& os, const volume& v, msh_version version = m
 }
 
 /// Writes atomically: the target is either fully replaced or untouched.
-inline void write_msh(const std::filesystem::path& path, const volume& v, msh_version version = msh_version::v4_1,
-                      encoding enc = encoding::binary) {
+inline void write_msh(const std::filesystem::path& path, const volume& v,
+                      msh_version version = msh_version::v4_1, encoding enc = encoding::binary) {
     detail::check_writable(v, path.string());
-    write_atomically(path, [&](std::ostream& os) { detail::write_msh_unchecked(os, v, version, enc); });
+    write_atomically(path,
+                     [&](std::ostream& os) { detail::write_msh_unchecked(os, v, version, enc); });
 }
 
 } // namespace idas::io

@@ -36,25 +36,36 @@ inline std::string xml_escaped(std::string_view s) {
     std::string out;
     for (char c : s) {
         switch (c) {
-        case '&': out += "&amp;"; break;
-        case '<': out += "&lt;"; break;
-        case '>': out += "&gt;"; break;
-        case '"': out += "&quot;"; break;
-        default: out += c;
+        case '&':
+            out += "&amp;";
+            break;
+        case '<':
+            out += "&lt;";
+            break;
+        case '>':
+            out += "&gt;";
+            break;
+        case '"':
+            out += "&quot;";
+            break;
+        default:
+            out += c;
         }
     }
     return out;
 }
 
 inline void base64_append(std::string& out, const unsigned char* p, std::size_t n) {
-    static constexpr char alphabet[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    static constexpr char alphabet[] =
+        "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
     std::size_t i = 0;
     for (; i + 3 <= n; i += 3) {
         const std::uint32_t w = std::uint32_t{p[i]} << 16 | std::uint32_t{p[i + 1]} << 8 | p[i + 2];
         for (int s = 18; s >= 0; s -= 6) out += alphabet[(w >> s) & 63];
     }
     if (i < n) {
-        const std::uint32_t w = std::uint32_t{p[i]} << 16 | (i + 1 < n ? std::uint32_t{p[i + 1]} << 8 : 0u);
+        const std::uint32_t w =
+            std::uint32_t{p[i]} << 16 | (i + 1 < n ? std::uint32_t{p[i + 1]} << 8 : 0u);
         out += alphabet[(w >> 18) & 63];
         out += alphabet[(w >> 12) & 63];
         out += i + 1 < n ? alphabet[(w >> 6) & 63] : '=';
@@ -75,8 +86,10 @@ void vtu_array(std::ostream& os, const char* type, std::string_view name, int co
     if (enc == encoding::ascii) {
         text_sink out(os);
         for (std::size_t i = 0; i < values.size(); ++i) {
-            if constexpr (std::is_floating_point_v<T>) out << static_cast<double>(values[i]);
-            else out << static_cast<std::uint64_t>(values[i]);
+            if constexpr (std::is_floating_point_v<T>)
+                out << static_cast<double>(values[i]);
+            else
+                out << static_cast<std::uint64_t>(values[i]);
             out << ((i + 1) % 12 == 0 || i + 1 == values.size() ? '\n' : ' ');
         }
         out.flush();
@@ -96,21 +109,26 @@ void vtu_array(std::ostream& os, const char* type, std::string_view name, int co
 inline void check_fields(const std::vector<vtu_field>& fields, std::size_t count, const char* what,
                          std::string_view target) {
     for (const auto& f : fields) {
-        if (f.components < 1) fail(target, std::string(what) + " field " + quoted(std::string_view(f.name)) + " has no components");
+        if (f.components < 1)
+            fail(target, std::string(what) + " field " + quoted(std::string_view(f.name)) +
+                             " has no components");
         if (f.values.size() != count * static_cast<std::size_t>(f.components))
-            fail(target, std::string(what) + " field " + quoted(std::string_view(f.name)) + " has " + std::to_string(f.values.size()) +
-                             " values, expected " + std::to_string(count * static_cast<std::size_t>(f.components)));
+            fail(target, std::string(what) + " field " + quoted(std::string_view(f.name)) +
+                             " has " + std::to_string(f.values.size()) + " values, expected " +
+                             std::to_string(count * static_cast<std::size_t>(f.components)));
     }
 }
 
-inline void check_vtu_writable(const volume& v, const vtu_options& options, std::string_view target) {
+inline void check_vtu_writable(const volume& v, const vtu_options& options,
+                               std::string_view target) {
     check_writable(v, target);
     check_fields(options.point_data, v.vertices.size(), "point", target);
     check_fields(options.cell_data, v.tets.size(), "cell", target);
 }
 
 inline void write_vtu_unchecked(std::ostream& os, const volume& v, const vtu_options& options) {
-    static_assert(std::endian::native == std::endian::little, "the binary VTU writer assumes little-endian");
+    static_assert(std::endian::native == std::endian::little,
+                  "the binary VTU writer assumes little-endian");
     const encoding enc = options.enc;
     os << "<?xml version=\"1.0\"?>\n"
           "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" "
@@ -151,7 +169,8 @@ inline void write_vtu(std::ostream& os, const volume& v, const vtu_options& opti
 }
 
 /// Writes atomically: the target is either fully replaced or untouched.
-inline void write_vtu(const std::filesystem::path& path, const volume& v, const vtu_options& options = {}) {
+inline void write_vtu(const std::filesystem::path& path, const volume& v,
+                      const vtu_options& options = {}) {
     detail::check_vtu_writable(v, options, path.string());
     write_atomically(path, [&](std::ostream& os) { detail::write_vtu_unchecked(os, v, options); });
 }

@@ -132,7 +132,8 @@ public:
     /// Tuple at vertex v on edge vw of tet t (both must be vertices of t).
     tuple tuple_at(index_t t, index_t v, index_t w) const noexcept {
         const auto& tv = conn_.tet_vertices(t);
-        const std::uint8_t le = tet_local::edge_of[tet_local::index_of(tv, v)][tet_local::index_of(tv, w)];
+        const std::uint8_t le =
+            tet_local::edge_of[tet_local::index_of(tv, v)][tet_local::index_of(tv, w)];
         return {v, t, le, tet_local::edge_complement(le)[0], conn_.tet_version(t)};
     }
     /// Tuple at vertex v in one of its tets; v must have a tet.
@@ -246,7 +247,7 @@ public:
     /// shared by exactly two of them.
     bool is_boundary_edge(const tuple& t) const noexcept {
         const auto [a, b] = edge_vertices(t);
-        boost::container::small_vector<index_t, 32> ring;
+        boost::container::small_vector<index_t, 64> ring;
         for (index_t g : conn_.vertex_tets(a)) {
             const auto& gv = conn_.tet_vertices(g);
             if (!tet_local::contains(gv, b)) continue;
@@ -263,7 +264,7 @@ public:
     /// A vertex is interior iff its link is closed: every link edge lies in two link
     /// triangles.
     bool is_boundary_vertex(index_t v) const noexcept {
-        boost::container::small_vector<std::pair<index_t, index_t>, 96> edges;
+        boost::container::small_vector<std::pair<index_t, index_t>, 192> edges;
         for (index_t g : conn_.vertex_tets(v)) {
             const auto& gv = conn_.tet_vertices(g);
             const std::uint8_t i = tet_local::index_of(gv, v);
@@ -450,6 +451,8 @@ public:
     void set_tet(index_t t, const tet_indices& v, undo_log& log) { conn_.set_tet(t, v, log); }
     void touch_tet(index_t t, undo_log& log) { conn_.touch_tet(t, log); }
     void rollback(undo_log& log, std::size_t mark) { conn_.rollback(log, mark); }
+    /// See indexed_tet::set_slot_recycling.
+    void set_slot_recycling(bool on) noexcept { conn_.set_slot_recycling(on); }
     void reserve(index_t vertices, index_t tets) {
         conn_.reserve(vertices, tets);
         attrs_.ensure(simplex_kind::vertex, vertices);
@@ -490,8 +493,10 @@ public:
                 const auto& tv = conn_.tet_vertices(t);
                 old_t.push_back(t);
                 T.push_back({new_v[tv[0]], new_v[tv[1]], new_v[tv[2]], new_v[tv[3]]});
-                for (std::uint8_t le = 0; le < 6; ++le) old_e.push_back(eid(tuple_from_edge(t, le)));
-                for (std::uint8_t lf = 0; lf < 4; ++lf) old_f.push_back(fid(tuple_from_face(t, lf)));
+                for (std::uint8_t le = 0; le < 6; ++le)
+                    old_e.push_back(eid(tuple_from_edge(t, le)));
+                for (std::uint8_t lf = 0; lf < 4; ++lf)
+                    old_f.push_back(fid(tuple_from_face(t, lf)));
             }
         Backend fresh;
         fresh.build(static_cast<index_t>(old_v.size()), T);
@@ -507,7 +512,8 @@ public:
     friend bool operator==(const tet_mesh& a, const tet_mesh& b) = delete;
 
 private:
-    static void check_input(const std::vector<vec3>& vertices, const std::vector<tet_indices>& tets) {
+    static void check_input(const std::vector<vec3>& vertices,
+                            const std::vector<tet_indices>& tets) {
         if (vertices.size() >= invalid_index) throw input_error("too many vertices");
         if (tets.size() >= invalid_index / 6) throw input_error("too many tets");
         for (std::size_t i = 0; i < vertices.size(); ++i)
@@ -526,11 +532,11 @@ private:
                     if (tv[i] == tv[j])
                         throw input_error(tet_name(t) + " is degenerate: it uses vertex " +
                                           std::to_string(tv[i]) + " twice");
-            const int o = orient3d(vertices[tv[0]], vertices[tv[1]], vertices[tv[2]], vertices[tv[3]]);
+            const int o =
+                orient3d(vertices[tv[0]], vertices[tv[1]], vertices[tv[2]], vertices[tv[3]]);
             if (o == 0)
                 throw input_error(tet_name(t) + " is degenerate: its vertices are coplanar");
-            if (o < 0)
-                throw input_error(tet_name(t) + " is inverted (negatively oriented)");
+            if (o < 0) throw input_error(tet_name(t) + " is inverted (negatively oriented)");
         }
         // Every face as a sorted triple with the parity of its outward orientation: a
         // shared face must be seen in opposite directions from its two tets.
@@ -561,9 +567,9 @@ private:
             std::size_t j = i + 1;
             while (j < faces.size() && faces[j].key == faces[i].key) ++j;
             if (j - i > 2)
-                throw input_error(face_name(faces[i].key) + " is shared by " + std::to_string(j - i) +
-                                  " tets (" + std::to_string(faces[i].tet) + ", " +
-                                  std::to_string(faces[i + 1].tet) + ", " +
+                throw input_error(face_name(faces[i].key) + " is shared by " +
+                                  std::to_string(j - i) + " tets (" + std::to_string(faces[i].tet) +
+                                  ", " + std::to_string(faces[i + 1].tet) + ", " +
                                   std::to_string(faces[i + 2].tet) + ")");
             if (j - i == 2 && faces[i].odd == faces[i + 1].odd)
                 throw input_error(tet_name(faces[i].tet) + " and " + tet_name(faces[i + 1].tet) +
@@ -614,10 +620,18 @@ bool identical(const tet_mesh<Backend>& a, const tet_mesh<Backend>& b) {
     for (std::size_t i = 0; i < ca.size(); ++i) {
         std::size_t slots = 0;
         switch (ca[i]->kind) {
-        case simplex_kind::vertex: slots = a.vertex_slots(); break;
-        case simplex_kind::edge: slots = a.edge_slots(); break;
-        case simplex_kind::face: slots = a.face_slots(); break;
-        case simplex_kind::tet: slots = a.tet_slots(); break;
+        case simplex_kind::vertex:
+            slots = a.vertex_slots();
+            break;
+        case simplex_kind::edge:
+            slots = a.edge_slots();
+            break;
+        case simplex_kind::face:
+            slots = a.face_slots();
+            break;
+        case simplex_kind::tet:
+            slots = a.tet_slots();
+            break;
         }
         if (ca[i]->kind != cb[i]->kind || ca[i]->stride != cb[i]->stride ||
             std::memcmp(ca[i]->data, cb[i]->data, slots * ca[i]->stride) != 0)

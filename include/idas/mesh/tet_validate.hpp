@@ -40,7 +40,8 @@ std::optional<std::string> check_tet(const tet_mesh<Backend>& m, index_t t) {
             if (tv[i] == tv[j]) return at_tet("tet", t) + "repeats vertex " + std::to_string(tv[i]);
         const auto list = c.vertex_tets(tv[i]);
         if (std::count(list.begin(), list.end(), t) != 1)
-            return at_tet("tet", t) + "is not listed exactly once by vertex " + std::to_string(tv[i]);
+            return at_tet("tet", t) + "is not listed exactly once by vertex " +
+                   std::to_string(tv[i]);
     }
     const auto p = m.positions();
     if (orient3d(p[tv[0]], p[tv[1]], p[tv[2]], p[tv[3]]) <= 0)

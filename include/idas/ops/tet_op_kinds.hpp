@@ -1,18 +1,42 @@
 // Operation kinds of the tetrahedral core. split_edge, collapse_edge and smooth_vertex
-// are the triangle core's kinds (ops/operation.hpp); the swaps are tet-only.
+// are the triangle core's kinds (ops/operation.hpp); the swaps are tet-only. On tet
+// meshes `adds_faces` counts new top-simplex (tet) slots.
 #pragma once
 
 #include <idas/ops/operation.hpp>
 
+#include <cstddef>
 #include <cstdint>
 
-namespace idas::op {
+namespace idas {
+
+/// Longest edge ring edge_removal handles (its dynamic programme is cubic in the ring).
+inline constexpr std::size_t max_edge_ring = 24;
+
+namespace op {
 /// 2-3 swap: the two tets on an interior face become three tets around a new edge.
-struct face_swap_23 { static constexpr std::uint8_t id = 4; };
+struct face_swap_23 {
+    static constexpr std::uint8_t id = 4;
+    static constexpr index_t adds_vertices = 0, adds_faces = 1;
+};
 /// 3-2 swap: the three tets around an interior edge become two tets on a new face.
-struct edge_swap_32 { static constexpr std::uint8_t id = 5; };
+struct edge_swap_32 {
+    static constexpr std::uint8_t id = 5;
+    static constexpr index_t adds_vertices = 0, adds_faces = 0;
+};
 /// 4-4 swap: the four tets around an interior edge become four around the other diagonal.
-struct edge_swap_44 { static constexpr std::uint8_t id = 6; };
+struct edge_swap_44 {
+    static constexpr std::uint8_t id = 6;
+    static constexpr index_t adds_vertices = 0, adds_faces = 0;
+};
 /// Edge removal: the n tets around an interior edge become 2n - 4 tets.
-struct edge_removal { static constexpr std::uint8_t id = 7; };
-} // namespace idas::op
+struct edge_removal {
+    static constexpr std::uint8_t id = 7;
+    static constexpr index_t adds_vertices = 0, adds_faces = index_t(max_edge_ring - 4);
+};
+} // namespace op
+
+static_assert(operation_kind<op::face_swap_23> && operation_kind<op::edge_swap_32> &&
+              operation_kind<op::edge_swap_44> && operation_kind<op::edge_removal>);
+
+} // namespace idas

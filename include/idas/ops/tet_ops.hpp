@@ -49,14 +49,13 @@ double tet_quality(const Mesh& m, const tet_indices& t) {
     return tet_quality(p[t[0]], p[t[1]], p[t[2]], p[t[3]]);
 }
 
-/// Longest ring edge_removal handles (its dynamic programme is cubic in the ring size).
-inline constexpr std::size_t max_edge_ring = 24;
-
 namespace detail {
 
 template <class Spec>
 bool allows_boundary_change(const Spec& spec) {
-    if constexpr (requires { { spec.allow_boundary_change } -> std::convertible_to<bool>; })
+    if constexpr (requires {
+                      { spec.allow_boundary_change } -> std::convertible_to<bool>;
+                  })
         return static_cast<bool>(spec.allow_boundary_change);
     else
         return false;
@@ -140,9 +139,12 @@ template <class Range>
 std::size_t count_common_sorted(const Range& a, const Range& b) {
     std::size_t n = 0;
     for (auto i = a.begin(), j = b.begin(); i != a.end() && j != b.end();) {
-        if (*i < *j) ++i;
-        else if (*j < *i) ++j;
-        else ++n, ++i, ++j;
+        if (*i < *j)
+            ++i;
+        else if (*j < *i)
+            ++j;
+        else
+            ++n, ++i, ++j;
     }
     return n;
 }
@@ -218,7 +220,7 @@ bool link_condition_3d_holds(const Mesh& m, index_t a, index_t b) {
     if (!detail::closed_vertex_link(m, a, la) || !detail::closed_vertex_link(m, b, lb))
         return false;
     // lk(ab): an edge (x, y) per tet abxy, an edge (x, ω) per boundary face abx.
-    boost::container::small_vector<index_t, 32> ring;
+    boost::container::small_vector<index_t, 64> ring;
     std::size_t tets = 0;
     for (index_t g : m.vertex_tets(a)) {
         const auto& tv = m.tet_vertices(g);
@@ -254,7 +256,9 @@ double candidate_quality(const Mesh& m, Spec& spec, const tet_indices& t) {
     const auto p = m.positions();
     if (orient3d(p[t[0]], p[t[1]], p[t[2]], p[t[3]]) <= 0) return reject;
     double q;
-    if constexpr (requires { { spec.tet_quality(m, t) } -> std::convertible_to<double>; })
+    if constexpr (requires {
+                      { spec.tet_quality(m, t) } -> std::convertible_to<double>;
+                  })
         q = spec.tet_quality(m, t);
     else
         q = tet_quality(p[t[0]], p[t[1]], p[t[2]], p[t[3]]);
@@ -290,6 +294,8 @@ void replace_edge_ring(Mesh& m, op_context<Mesh>& ctx, index_t a, index_t b, con
         place({p, s, q, a});
     }
     for (; next < n_old; ++next) m.remove_tet(r.tets[next], ctx.conn);
+    ctx.pending_faces =
+        static_cast<std::int64_t>(2 * tris.size()) - static_cast<std::int64_t>(n_old);
 }
 
 /// True iff the ring polygon's chord (i, k) may become an edge: it is a side of the
@@ -322,6 +328,8 @@ std::optional<op_result<tet_tuple>> split_edge(tet_mesh<B>& m, const tet_tuple& 
         tets.clear();
         m.edge_tets(t, tets);
         const index_t nv = m.add_vertex(ctx.conn);
+        // Live-count changes, for executors that track mesh size.
+        ctx.pending_faces = static_cast<std::int64_t>(tets.size()), ctx.pending_vertices = 1;
         for (index_t g : tets) {
             const tet_indices old = m.tet_vertices(g);
             m.set_tet(g, detail::replaced(old, b, nv), ctx.conn);
@@ -338,8 +346,8 @@ std::optional<op_result<tet_tuple>> split_edge(tet_mesh<B>& m, const tet_tuple& 
 /// is on the boundary. New tets: the whole new star of a. Anchor: a. `after` sets a's
 /// new position (and other attributes).
 template <class B, class Spec = no_spec>
-std::optional<op_result<tet_tuple>> collapse_edge(tet_mesh<B>& m, const tet_tuple& t,
-                                                  Spec&& spec, op_context<tet_mesh<B>>& ctx) {
+std::optional<op_result<tet_tuple>> collapse_edge(tet_mesh<B>& m, const tet_tuple& t, Spec&& spec,
+                                                  op_context<tet_mesh<B>>& ctx) {
     if (!m.is_valid(t)) return std::nullopt;
     const auto [a, b] = m.edge_vertices(t);
     if (!detail::allows_boundary_change(spec) && m.is_boundary_vertex(b)) return std::nullopt;
@@ -353,13 +361,17 @@ std::optional<op_result<tet_tuple>> collapse_edge(tet_mesh<B>& m, const tet_tupl
         tets_b.assign(m.vertex_tets(b).begin(), m.vertex_tets(b).end());
         for (index_t g : tets_b) {
             const auto& tv = m.tet_vertices(g);
-            if (tet_local::contains(tv, a)) m.remove_tet(g, ctx.conn);
-            else m.set_tet(g, detail::replaced(tv, b, a), ctx.conn);
+            if (tet_local::contains(tv, a))
+                m.remove_tet(g, ctx.conn), --ctx.pending_faces;
+            else
+                m.set_tet(g, detail::replaced(tv, b, a), ctx.conn);
         }
         m.remove_vertex(b, ctx.conn);
+        ctx.pending_vertices = -1;
         // a moves, so its whole new star changes; moved-in tets were bumped already.
         for (index_t g : m.vertex_tets(a)) {
-            if (std::find(tets_b.begin(), tets_b.end(), g) == tets_b.end()) m.touch_tet(g, ctx.conn);
+            if (std::find(tets_b.begin(), tets_b.end(), g) == tets_b.end())
+                m.touch_tet(g, ctx.conn);
             detail::emit_tet(m, ctx, a, g, g);
         }
         return m.tuple_in_tet(a, ctx.cells.front().tid);
@@ -370,8 +382,8 @@ std::optional<op_result<tet_tuple>> collapse_edge(tet_mesh<B>& m, const tet_tupl
 /// but every tet of its star is renewed (new version). Refused for boundary vertices
 /// without allow_boundary_change. Anchor: the vertex.
 template <class B, class Spec = no_spec>
-std::optional<op_result<tet_tuple>> smooth_vertex(tet_mesh<B>& m, const tet_tuple& t,
-                                                  Spec&& spec, op_context<tet_mesh<B>>& ctx) {
+std::optional<op_result<tet_tuple>> smooth_vertex(tet_mesh<B>& m, const tet_tuple& t, Spec&& spec,
+                                                  op_context<tet_mesh<B>>& ctx) {
     if (!m.is_valid(t)) return std::nullopt;
     if (!detail::allows_boundary_change(spec) && m.is_boundary_vertex(t.vid)) return std::nullopt;
     return detail::run_tri_operation<op::smooth_vertex>(m, t, spec, ctx, [&] {
@@ -406,6 +418,7 @@ std::optional<op_result<tet_tuple>> face_swap_23(tet_mesh<B>& m, const tet_tuple
         m.set_tet(t1, {a, b, e, d}, ctx.conn);
         m.set_tet(t2, {b, c, e, d}, ctx.conn);
         const index_t t3 = m.add_tet({c, a, e, d}, ctx.conn);
+        ctx.pending_faces = 1;
         detail::emit_tet(m, ctx, d, t1, t1);
         detail::emit_tet(m, ctx, d, t2, t2);
         detail::emit_tet(m, ctx, d, t3, t1);
@@ -446,7 +459,8 @@ std::optional<op_result<tet_tuple>> edge_swap_44(tet_mesh<B>& m, const tet_tuple
     std::uint8_t i = 0;
     while (i < 4 && r.verts[i] != c) ++i;
     if (i == 4) return std::nullopt;
-    const auto i1 = static_cast<std::uint8_t>((i + 1) % 4), i2 = static_cast<std::uint8_t>((i + 2) % 4),
+    const auto i1 = static_cast<std::uint8_t>((i + 1) % 4),
+               i2 = static_cast<std::uint8_t>((i + 2) % 4),
                i3 = static_cast<std::uint8_t>((i + 3) % 4);
     if (m.find_edge(c, r.verts[i2])) return std::nullopt;
     return detail::run_tri_operation<op::edge_swap_44>(m, t, spec, ctx, [&] {
@@ -478,7 +492,8 @@ std::optional<op_result<tet_tuple>> edge_removal(tet_mesh<B>& m, const tet_tuple
     std::array<std::array<bool, max_edge_ring>, max_edge_ring> chord_ok;
     for (std::size_t i = 0; i < n; ++i)
         for (std::size_t k = i + 1; k < n; ++k) chord_ok[i][k] = detail::chord_free(m, r, i, k);
-    for (std::size_t i = 0; i + 1 < n; ++i) best[i][i + 1] = std::numeric_limits<double>::infinity();
+    for (std::size_t i = 0; i + 1 < n; ++i)
+        best[i][i + 1] = std::numeric_limits<double>::infinity();
     for (std::size_t len = 2; len < n; ++len)
         for (std::size_t i = 0; i + len < n; ++i) {
             const std::size_t k = i + len;

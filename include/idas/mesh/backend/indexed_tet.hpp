@@ -25,6 +25,7 @@ public:
             tet_added,
             vertex_added,
             vertex_removed,
+            vertex_dropped,
             vertex_reused,
             vt_insert,
             vt_erase,
@@ -90,12 +91,17 @@ public:
         return bytes;
     }
 
+    /// With recycling off, removed slots stay dead instead of being handed out again
+    /// (the free lists are shared state a parallel phase must not touch); `consolidate`
+    /// reclaims them later.
+    void set_slot_recycling(bool on) noexcept { recycle_ = on; }
+
     // ---- journaled mutation ----
 
     // Dead slots are recycled newest first, so long runs keep the arrays at a steady
     // size. A recycled tet slot keeps counting versions, so old tuples to it stay stale.
     index_t add_vertex(undo_log& log) {
-        if (!free_vertices_.empty()) {
+        if (recycle_ && !free_vertices_.empty()) {
             const index_t v = free_vertices_.back();
             free_vertices_.pop_back();
             valive_[v] = 1;
@@ -111,12 +117,13 @@ public:
     void remove_vertex(index_t v, undo_log& log) {
         assert(vt_[v].empty());
         valive_[v] = 0;
-        free_vertices_.push_back(v);
-        log.push_back({undo_entry::what::vertex_removed, v});
+        if (recycle_) free_vertices_.push_back(v);
+        log.push_back(
+            {recycle_ ? undo_entry::what::vertex_removed : undo_entry::what::vertex_dropped, v});
     }
     index_t add_tet(const tet_indices& t, undo_log& log) {
         index_t id;
-        if (!free_tets_.empty()) {
+        if (recycle_ && !free_tets_.empty()) {
             id = free_tets_.back();
             free_tets_.pop_back();
             log.push_back({undo_entry::what::free_tet_popped, id});
@@ -137,8 +144,10 @@ public:
         for (index_t v : tv_[t]) vt_erase(v, t, log);
         tv_[t] = {invalid_index, invalid_index, invalid_index, invalid_index};
         ++version_[t];
-        free_tets_.push_back(t);
-        log.push_back({undo_entry::what::free_tet_pushed, t});
+        if (recycle_) {
+            free_tets_.push_back(t);
+            log.push_back({undo_entry::what::free_tet_pushed, t});
+        }
     }
     /// Rewrites a tet in place (same slot, new version).
     void set_tet(index_t t, const tet_indices& nv, undo_log& log) {
@@ -163,7 +172,9 @@ public:
             const undo_entry e = log.back();
             log.pop_back();
             switch (e.kind) {
-            case w::tet_set: tv_[e.a] = e.verts, version_[e.a] = e.version; break;
+            case w::tet_set:
+                tv_[e.a] = e.verts, version_[e.a] = e.version;
+                break;
             case w::tet_added:
                 assert(e.a + 1 == tv_.size());
                 tv_.pop_back(), version_.pop_back();
@@ -176,17 +187,26 @@ public:
                 valive_[e.a] = 1;
                 free_vertices_.pop_back();
                 break;
+            case w::vertex_dropped:
+                valive_[e.a] = 1;
+                break;
             case w::vertex_reused:
                 valive_[e.a] = 0;
                 free_vertices_.push_back(e.a);
                 break;
-            case w::free_tet_pushed: free_tets_.pop_back(); break;
-            case w::free_tet_popped: free_tets_.push_back(e.a); break;
+            case w::free_tet_pushed:
+                free_tets_.pop_back();
+                break;
+            case w::free_tet_popped:
+                free_tets_.push_back(e.a);
+                break;
             case w::vt_insert:
                 assert(!vt_[e.a].empty() && vt_[e.a].back() == e.b);
                 vt_[e.a].pop_back();
                 break;
-            case w::vt_erase: vt_[e.a].insert(vt_[e.a].begin() + e.c, e.b); break;
+            case w::vt_erase:
+                vt_[e.a].insert(vt_[e.a].begin() + e.c, e.b);
+                break;
             }
         }
     }
@@ -222,6 +242,7 @@ private:
     std::vector<tet_list> vt_;
     std::vector<std::uint8_t> valive_;
     std::vector<index_t> free_tets_, free_vertices_;
+    bool recycle_ = true;
 };
 
 static_assert(tet_connectivity<indexed_tet>);

@@ -1,0 +1,424 @@
+// Benchmarks of the tetrahedral core: ns per local operation (committed, and rolled back
+// because the spec's after() refuses) on a jittered subdivided cube, and the memory the
+// indexed_tet backend needs per tet. orient3d (filtered and exact paths) is measured by
+// bench_predicates; see bench/RESULTS.md.
+//
+// Method
+// ------
+// * Mesh: the unit cube cut into 24^3 cells of 6 tets each (82,944 tets, 15,625 vertices),
+//   interior vertices jittered by up to 0.15 cell sizes (seed 1). For edge_swap_32 the
+//   mesh first gets an independent set of 2-3 swaps, which creates the valence-3 edges a
+//   3-2 swap needs (the plain cube has none).
+// * Spec (the same for every operation): midpoint split, collapse to the midpoint (or to
+//   the boundary endpoint), Laplacian smoothing (vertex to its one-ring centroid), and the
+//   positive_orientation invariant (exact orient3d on every new tet). No attributes.
+// * An "independent set" per operation: candidates (every edge, interior face or vertex)
+//   are visited in a fixed random order and one is kept if the vertices of the tets
+//   around its key vertices (edge: both ends; face: its three corners; vertex: itself) are
+//   disjoint from those of every kept candidate, and the operation succeeds on a working
+//   copy. Kept operations neither read nor write anything another one touches, so on any
+//   fresh copy of the mesh each of them is valid and succeeds (the "ok" counter checks it).
+// * commit: one iteration is one operation. The pristine mesh is copied with timing paused
+//   (capacity reserved, so slot growth does not reallocate), then the set is applied in
+//   order; when it is used up the mesh is copied again.
+// * rollback: the spec's after() returns false, so the whole operation runs (connectivity
+//   change, after(), no invariant) and its journal is rolled back. The mesh is left
+//   unchanged (checked after the loop with idas::identical, "unchanged" counter), so this
+//   cycles in place over the same set.
+// * mem/indexed_tet: backend memory_bytes() / tets, and position bytes per tet.
+// * pair/*: a 2-3 swap of an interior face immediately undone by a 3-2 swap of the new
+//   edge (the only flips idas and CGAL both have), in place, over the face_swap_23 set
+//   (idas) or over an independent set of flippable facets of CGAL's Delaunay
+//   triangulation of the same points (CGAL::Triangulation_3::flip(Cell_handle, int) then
+//   flip(Edge); Epick kernel; compiled only when CGAL is found). Both check orientations
+//   exactly (filtered) and that the new edge does not exist yet; idas also checks the
+//   3-2's face and runs its journal and invariant protocol. time/op is per flip.
+#include <idas/invariants/positive_orientation.hpp>
+#include <idas/mesh/tet_mesh.hpp>
+#include <idas/ops/tet_ops.hpp>
+
+#include <benchmark/benchmark.h>
+#include <boost/container/small_vector.hpp>
+
+#if IDAS_BENCH_WITH_CGAL
+#include <CGAL/Delaunay_triangulation_3.h>
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+
+#include <cstdlib>
+#include <iterator>
+#include <set>
+#endif
+
+#include <algorithm>
+#include <cstddef>
+#include <functional>
+#include <optional>
+#include <random>
+#include <string>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+namespace {
+
+using namespace idas;
+using mesh_t = tet_mesh<>;
+
+constexpr int cube_cells = 24;
+constexpr double cube_jitter = 0.15;
+
+/// The jittered Kuhn cube (6 tets per cell around the cell's main diagonal).
+mesh_t make_cube(int n, double jitter, unsigned seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> shake(-jitter, jitter);
+    const double h = 1.0 / n;
+    auto id = [&](int i, int j, int k) { return index_t((k * (n + 1) + j) * (n + 1) + i); };
+    std::vector<vec3> V;
+    for (int k = 0; k <= n; ++k)
+        for (int j = 0; j <= n; ++j)
+            for (int i = 0; i <= n; ++i) {
+                vec3 p{i * h, j * h, k * h};
+                if (i > 0 && j > 0 && k > 0 && i < n && j < n && k < n)
+                    p += vec3{shake(rng), shake(rng), shake(rng)} * h;
+                V.push_back(p);
+            }
+    std::vector<tet_indices> T;
+    const int axes[6][2] = {{1, 2}, {1, 4}, {2, 1}, {2, 4}, {4, 1}, {4, 2}};
+    for (int k = 0; k < n; ++k)
+        for (int j = 0; j < n; ++j)
+            for (int i = 0; i < n; ++i) {
+                auto c = [&](int bits) {
+                    return id(i + (bits & 1), j + (bits >> 1 & 1), k + (bits >> 2 & 1));
+                };
+                for (const auto& ax : axes) {
+                    tet_indices t{c(0), c(ax[0]), c(ax[0] | ax[1]), c(7)};
+                    if (orient3d(V[t[0]], V[t[1]], V[t[2]], V[t[3]]) < 0) std::swap(t[2], t[3]);
+                    T.push_back(t);
+                }
+            }
+    return {V, T};
+}
+
+struct bench_spec {
+    bool fail = false;
+
+    std::optional<vec3> before(op::split_edge, const mesh_t& m, const tet_tuple& t) const {
+        const auto [a, b] = m.edge_vertices(t);
+        return (m.position(a) + m.position(b)) * 0.5;
+    }
+    std::optional<vec3> before(op::collapse_edge, const mesh_t& m, const tet_tuple& t) const {
+        const auto [a, b] = m.edge_vertices(t);
+        const bool ba = m.is_boundary_vertex(a), bb = m.is_boundary_vertex(b);
+        if (ba != bb) return ba ? m.position(a) : m.position(b);
+        return (m.position(a) + m.position(b)) * 0.5;
+    }
+    template <class Op>
+    requires(std::is_same_v<Op, op::split_edge> ||
+             std::is_same_v<Op, op::collapse_edge>) bool after(Op, mesh_t& m,
+                                                               const op_result<tet_tuple>& r,
+                                                               vec3& p) const {
+        m.positions().set(r.anchor.vid, p);
+        return !fail;
+    }
+    bool after(op::smooth_vertex, mesh_t& m, const op_result<tet_tuple>& r) const {
+        boost::container::small_vector<index_t, 64> ring;
+        m.one_ring_vertices(r.anchor.vid, ring);
+        vec3 c{};
+        for (index_t w : ring) c += m.position(w);
+        m.positions().set(r.anchor.vid, c / double(ring.size()));
+        return !fail;
+    }
+    template <class Op>
+    requires(std::is_same_v<Op, op::face_swap_23> || std::is_same_v<Op, op::edge_swap_32> ||
+             std::is_same_v<Op, op::edge_swap_44> ||
+             std::is_same_v<Op, op::edge_removal>) bool after(Op, mesh_t&,
+                                                              const op_result<tet_tuple>&) const {
+        return !fail;
+    }
+    auto invariants() const { return invariant_set<positive_orientation>{}; }
+};
+
+enum class kind { split, collapse, smooth, swap23, swap32, swap44, removal };
+constexpr const char* kind_names[] = {"split_edge",   "collapse_edge", "smooth_vertex",
+                                      "face_swap_23", "edge_swap_32",  "edge_swap_44",
+                                      "edge_removal"};
+
+bool run_op(kind k, mesh_t& m, const tet_tuple& t, bench_spec& s) {
+    switch (k) {
+    case kind::split:
+        return split_edge(m, t, s).has_value();
+    case kind::collapse:
+        return collapse_edge(m, t, s).has_value();
+    case kind::smooth:
+        return smooth_vertex(m, t, s).has_value();
+    case kind::swap23:
+        return face_swap_23(m, t, s).has_value();
+    case kind::swap32:
+        return edge_swap_32(m, t, s).has_value();
+    case kind::swap44:
+        return edge_swap_44(m, t, s).has_value();
+    case kind::removal:
+        return edge_removal(m, t, s).has_value();
+    }
+    return false;
+}
+
+/// The vertices whose incidences or positions the operation on t may read or write.
+void neighbourhood(const mesh_t& m, kind k, const tet_tuple& t, std::vector<index_t>& out) {
+    out.clear();
+    boost::container::small_vector<index_t, 3> keys;
+    if (k == kind::smooth) {
+        keys.push_back(t.vid);
+    } else if (k == kind::swap23) {
+        for (index_t v : m.face_vertices(t)) keys.push_back(v);
+    } else {
+        const auto [a, b] = m.edge_vertices(t);
+        keys.push_back(a), keys.push_back(b);
+    }
+    for (index_t v : keys)
+        for (index_t g : m.vertex_tets(v))
+            for (index_t x : m.tet_vertices(g)) out.push_back(x);
+}
+
+struct prepared {
+    mesh_t base;
+    std::vector<tet_tuple> set;
+    index_t reserve_vertices = 0, reserve_tets = 0;
+    double mean_ring = 0; // edge ops: mean number of tets around the edge
+};
+
+prepared independent_set(const mesh_t& base, kind k) {
+    prepared p{base, {}, 0, 0, 0};
+    std::vector<tet_tuple> cands;
+    if (k == kind::smooth)
+        cands = base.get_vertices();
+    else if (k == kind::swap23)
+        for (const auto& f : base.get_faces()) {
+            if (!base.is_boundary_face(f)) cands.push_back(f);
+        }
+    else
+        cands = base.get_edges();
+    std::mt19937 rng(42);
+    std::shuffle(cands.begin(), cands.end(), rng);
+    mesh_t work = base;
+    std::vector<char> used(base.vertex_slots(), 0);
+    std::vector<index_t> hood;
+    bench_spec spec;
+    std::size_t ring_sum = 0;
+    std::vector<index_t> ring;
+    for (const auto& c : cands) {
+        neighbourhood(base, k, c, hood);
+        if (std::any_of(hood.begin(), hood.end(), [&](index_t v) { return used[v] != 0; }))
+            continue;
+        ring.clear();
+        if (k != kind::smooth && k != kind::swap23) base.edge_tets(c, ring);
+        if (!run_op(k, work, c, spec)) continue;
+        for (index_t v : hood) used[v] = 1;
+        p.set.push_back(c);
+        ring_sum += ring.size();
+    }
+    if (!p.set.empty()) p.mean_ring = double(ring_sum) / double(p.set.size());
+    p.reserve_vertices = base.vertex_slots() + index_t(p.set.size());
+    p.reserve_tets = base.tet_slots() + index_t(max_edge_ring * p.set.size());
+    return p;
+}
+
+const mesh_t& cube_mesh() {
+    static const mesh_t m = make_cube(cube_cells, cube_jitter, 1);
+    return m;
+}
+
+const prepared& fixture(kind k) {
+    static std::optional<prepared> cache[7];
+    auto& slot = cache[int(k)];
+    if (!slot) {
+        if (k == kind::swap32) {
+            // Apply an independent set of 2-3 swaps: each leaves a valence-3 edge.
+            const prepared& p23 = fixture(kind::swap23);
+            mesh_t m = p23.base;
+            bench_spec spec;
+            for (const auto& t : p23.set) run_op(kind::swap23, m, t, spec);
+            slot = independent_set(m, k);
+        } else {
+            slot = independent_set(cube_mesh(), k);
+        }
+    }
+    return *slot;
+}
+
+void bm_commit(benchmark::State& st, kind k) {
+    const prepared& p = fixture(k);
+    if (p.set.empty()) {
+        st.SkipWithError("no candidate");
+        return;
+    }
+    mesh_t m;
+    bench_spec spec;
+    std::size_t i = p.set.size(), ok = 0, ops = 0, copies = 0;
+    for (auto _ : st) {
+        if (i == p.set.size()) {
+            st.PauseTiming();
+            m = p.base;
+            m.reserve(p.reserve_vertices, p.reserve_tets);
+            i = 0;
+            ++copies;
+            st.ResumeTiming();
+        }
+        ok += run_op(k, m, p.set[i++], spec);
+        ++ops;
+    }
+    st.counters["ok"] = double(ok) / double(ops);
+    st.counters["set"] = double(p.set.size());
+    if (p.mean_ring > 0) st.counters["ring"] = p.mean_ring;
+}
+
+void bm_rollback(benchmark::State& st, kind k) {
+    const prepared& p = fixture(k);
+    if (p.set.empty()) {
+        st.SkipWithError("no candidate");
+        return;
+    }
+    mesh_t m = p.base;
+    m.reserve(p.reserve_vertices, p.reserve_tets);
+    bench_spec spec;
+    spec.fail = true;
+    for (const auto& t : p.set) run_op(k, m, t, spec); // warm the buffers
+    std::size_t i = 0, refused = 0, ops = 0;
+    for (auto _ : st) {
+        refused += !run_op(k, m, p.set[i], spec);
+        if (++i == p.set.size()) i = 0;
+        ++ops;
+    }
+    st.counters["refused"] = double(refused) / double(ops);
+    st.counters["unchanged"] = identical(m, p.base) ? 1 : 0;
+}
+
+void bm_pair_idas(benchmark::State& st) {
+    const prepared& p = fixture(kind::swap23);
+    mesh_t m = p.base;
+    bench_spec spec;
+    std::vector<tet_tuple> faces = p.set;
+    std::size_t i = 0, ok = 0, ops = 0;
+    for (auto _ : st) {
+        const auto r23 = face_swap_23(m, faces[i], spec);
+        bool good = false;
+        if (r23) {
+            const index_t e = m.edge_vertices(r23->anchor).second; // the new edge de
+            const auto r32 = edge_swap_32(m, r23->anchor, spec);
+            if (r32) {
+                const index_t g = r32->anchor.tid;
+                faces[i] = m.tuple_from_face(g, tet_local::index_of(m.tet_vertices(g), e));
+                good = true;
+            }
+        }
+        ok += good;
+        if (++i == faces.size()) i = 0;
+        ++ops;
+    }
+    st.counters["ok"] = double(ok) / double(ops);
+    st.counters["set"] = double(faces.size());
+    st.counters["time/op"] = benchmark::Counter(double(2 * ops), benchmark::Counter::kIsRate |
+                                                                     benchmark::Counter::kInvert);
+}
+
+#if IDAS_BENCH_WITH_CGAL
+using cgal_kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
+using cgal_dt = CGAL::Delaunay_triangulation_3<cgal_kernel>;
+using cgal_tr = cgal_dt::Tr_Base; // its Triangulation_3 base, where flip() lives
+
+void bm_pair_cgal(benchmark::State& st) {
+    static cgal_dt dt = [] {
+        const auto& m = cube_mesh();
+        std::vector<cgal_kernel::Point_3> pts;
+        for (index_t v = 0; v < m.vertex_slots(); ++v) {
+            const vec3& q = m.position(v);
+            pts.emplace_back(q[0], q[1], q[2]);
+        }
+        return cgal_dt(pts.begin(), pts.end());
+    }();
+    cgal_tr& tr = dt;
+    using vh = cgal_dt::Vertex_handle;
+    struct cand {
+        vh u, v; // the flipped facet is opposite u in u->cell(), v across it
+    };
+    static std::vector<cand> set = [&] {
+        std::vector<cgal_dt::Facet> facets(dt.finite_facets_begin(), dt.finite_facets_end());
+        std::mt19937 rng(42);
+        std::shuffle(facets.begin(), facets.end(), rng);
+        std::vector<cand> out;
+        std::set<vh> used;
+        std::vector<cgal_dt::Cell_handle> cells;
+        std::vector<vh> hood;
+        for (auto [c, i] : facets) {
+            hood.clear();
+            for (int k = 1; k < 4; ++k) {
+                cells.clear();
+                dt.incident_cells(c->vertex((i + k) & 3), std::back_inserter(cells));
+                for (auto cc : cells)
+                    for (int j = 0; j < 4; ++j) hood.push_back(cc->vertex(j));
+            }
+            if (std::any_of(hood.begin(), hood.end(),
+                            [&](vh x) { return dt.is_infinite(x) || used.count(x); }))
+                continue;
+            const vh u = c->vertex(i), v = dt.mirror_vertex(c, i);
+            if (!tr.flip(c, i)) continue;
+            // c now holds u and v (CGAL reuses it); undo with the 3-2 flip of uv.
+            if (!tr.flip(cgal_dt::Edge(c, c->index(u), c->index(v)))) std::abort();
+            for (vh x : hood) used.insert(x);
+            out.push_back({u, v});
+        }
+        return out;
+    }();
+    std::size_t i = 0, ok = 0, ops = 0;
+    for (auto _ : st) {
+        const cand& k = set[i];
+        auto c = k.u->cell();
+        bool good = false;
+        if (tr.flip(c, c->index(k.u)))
+            good = tr.flip(cgal_dt::Edge(c, c->index(k.u), c->index(k.v)));
+        ok += good;
+        if (++i == set.size()) i = 0;
+        ++ops;
+    }
+    st.counters["ok"] = double(ok) / double(ops);
+    st.counters["set"] = double(set.size());
+    st.counters["tets"] = double(dt.number_of_finite_cells());
+    st.counters["time/op"] = benchmark::Counter(double(2 * ops), benchmark::Counter::kIsRate |
+                                                                     benchmark::Counter::kInvert);
+}
+#endif
+
+void bm_memory(benchmark::State& st) {
+    const mesh_t& m = cube_mesh();
+    std::size_t bytes = 0;
+    for (auto _ : st) {
+        bytes = m.connectivity().memory_bytes();
+        benchmark::DoNotOptimize(bytes);
+    }
+    const double tets = double(m.n_tets());
+    st.counters["tets"] = tets;
+    st.counters["vertices"] = double(m.n_vertices());
+    st.counters["bytes/tet"] = double(bytes) / tets;
+    st.counters["position_bytes/tet"] = double(m.vertex_slots() * sizeof(vec3)) / tets;
+}
+
+} // namespace
+
+int main(int argc, char** argv) {
+    for (int k = 0; k < 7; ++k) {
+        benchmark::RegisterBenchmark((std::string("commit/") + kind_names[k]).c_str(), bm_commit,
+                                     kind(k));
+        benchmark::RegisterBenchmark((std::string("rollback/") + kind_names[k]).c_str(),
+                                     bm_rollback, kind(k));
+    }
+    benchmark::RegisterBenchmark("pair/face_swap_23+edge_swap_32/idas", bm_pair_idas);
+#if IDAS_BENCH_WITH_CGAL
+    benchmark::RegisterBenchmark("pair/flip23+flip32/cgal", bm_pair_cgal);
+#endif
+    benchmark::RegisterBenchmark("mem/indexed_tet", bm_memory);
+    benchmark::Initialize(&argc, argv);
+    if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+    benchmark::RunSpecifiedBenchmarks();
+    benchmark::Shutdown();
+    return 0;
+}
