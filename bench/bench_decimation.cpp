@@ -2,7 +2,8 @@
 // bench/run_decimation.sh. Not a Google Benchmark program: each run lasts seconds, and
 // peak memory is only meaningful for a process that does one thing.
 //
-//   bench_decimation --peer P --input x4|x16 --ratio R [--threads T] [--samples N]
+//   bench_decimation --peer P --input x1|x4|x16 --ratio R [--threads T] [--samples N]
+//                    [--data FILE.obj]
 //
 // Peers (shortest edge collapse, then quadric decimation):
 //   idas-sec        idas::algorithms::shortest_edge_collapse<true> (link condition, no normal flip)
@@ -29,13 +30,16 @@
 //                      on CGAL Surface_mesh copies of input and output, for every peer alike:
 //                      random uniform samples on faces at one fixed density (`--samples` per
 //                      armadillo surface area; the subdivided inputs have the same area) plus
-//                      every vertex, fixed seed. out_in samples the output and measures to the
-//                      input (how far the result strays); symmetric is the max of both ways.
-//   peak_rss_delta_mb  getrusage(RUSAGE_SELF) peak RSS at the end of the decimation minus the
-//                      RSS once the input arrays are loaded: the peer's mesh plus its working
-//                      memory. The kernel's high-water mark is reset after loading (writing 5
-//                      to /proc/self/clear_refs) so the subdivision's temporary hash map does
-//                      not hide it; `peak_reset` says whether that worked.
+//                      every vertex, fixed seed; `--samples 0` skips them. The input side is
+//                      armadillo itself, the same surface as its subdivisions. out_in samples
+//                      the output and measures to the input (how far the result strays);
+//                      symmetric is the max of both ways.
+//   peak_rss_delta_mb  getrusage(RUSAGE_SELF) peak RSS once the decimation is done and its
+//                      result extracted (before the Hausdorff step), minus the RSS once the
+//                      input arrays are loaded: the peer's mesh, its working memory and the
+//                      (small) result arrays. The kernel's high-water mark is reset after
+//                      loading (writing 5 to /proc/self/clear_refs) so the subdivision's
+//                      temporary hash map does not hide it; `peak_reset` says whether it was.
 //   manifold, euler    topology of the output face list (the input has Euler characteristic 2).
 #include <idas/algorithms/qslim.hpp>
 #include <idas/algorithms/shortest_edge_collapse.hpp>
@@ -111,7 +115,8 @@ surface subdivide(const surface& s) {
     midpoint.reserve(3 * s.faces.size() / 2 + 16);
     auto mid = [&](index_t a, index_t b) {
         const std::uint64_t key = std::uint64_t{std::min(a, b)} << 32 | std::max(a, b);
-        const auto [it, fresh] = midpoint.try_emplace(key, static_cast<index_t>(out.vertices.size()));
+        const auto [it, fresh] =
+            midpoint.try_emplace(key, static_cast<index_t>(out.vertices.size()));
         if (fresh) out.vertices.push_back((s.vertices[a] + s.vertices[b]) * 0.5);
         return it->second;
     };
@@ -199,15 +204,18 @@ run_result run_idas(const surface& in, std::int64_t target, unsigned threads) {
     // Includes the spec's one-off set-up (QSlim's quadrics) and filling the queue.
     out.seconds = timed([&] { r = Algorithm::run(m, spec, {.threads = threads}); });
     std::tie(out.output.vertices, out.output.faces) = m.to_arrays();
-    char buf[512];
-    std::snprintf(buf, sizeof buf,
-                  ",\"collapses\":%llu,\"refused\":%llu,\"stale\":%llu,\"pushed\":%llu,"
-                  "\"lock_failures\":%llu,\"deferred_to_serial\":%llu,\"stolen\":%llu",
-                  (unsigned long long)r.succeeded, (unsigned long long)r.refused,
-                  (unsigned long long)r.stale, (unsigned long long)r.pushed,
-                  (unsigned long long)r.lock_failures, (unsigned long long)r.deferred_to_serial,
-                  (unsigned long long)r.stolen);
-    out.extra = buf;
+    auto member = [&](const char* name, std::uint64_t value) {
+        out.extra += std::string(",\"") + name + "\":" + std::to_string(value);
+    };
+    member("collapses", r.succeeded);
+    member("refused", r.refused);
+    member("pushed", r.pushed);
+    member("popped", r.popped);
+    member("stale", r.stale);
+    member("purged", r.purged);
+    member("lock_failures", r.lock_failures);
+    member("deferred_to_serial", r.deferred_to_serial);
+    member("stolen", r.stolen);
     return out;
 }
 
@@ -266,52 +274,47 @@ struct face_count_stop {
     }
 };
 
-template <class Params>
-run_result run_cgal_with(cgal_mesh& m, std::int64_t target, Params&& make_params) {
+/// Runs `collapse(stop, visitor)` (which calls SMS::edge_collapse) on a copy of the input
+/// with a face-count stop, timing the call.
+template <class Collapse>
+run_result run_cgal(const surface& in, std::int64_t target, Collapse&& collapse) {
+    cgal_mesh m = to_cgal(in);
     std::int64_t faces = static_cast<std::int64_t>(m.number_of_faces());
     std::uint64_t collapses = 0;
     face_count_visitor visitor;
     visitor.faces = &faces, visitor.collapses = &collapses;
     const face_count_stop stop{&faces, target};
     run_result out;
-    out.seconds = timed([&] { SMS::edge_collapse(m, stop, make_params(visitor)); });
+    out.seconds = timed([&] { collapse(m, stop, visitor); });
     out.output = from_cgal(m);
     out.extra = ",\"collapses\":" + std::to_string(collapses);
     return out;
 }
 
 run_result run_cgal_sec(const surface& in, std::int64_t target) {
-    cgal_mesh m = to_cgal(in);
-    const SMS::Edge_length_cost<cgal_mesh> cost;
-    const SMS::Midpoint_placement<cgal_mesh> placement;
-    const SMS::Bounded_normal_change_filter<> filter;
-    return run_cgal_with(m, target, [&](const face_count_visitor& v) {
-        return CGAL::parameters::get_cost(cost).get_placement(placement).filter(filter).visitor(v);
+    return run_cgal(in, target, [](cgal_mesh& m, const auto& stop, const auto& visitor) {
+        const SMS::Edge_length_cost<cgal_mesh> cost;
+        const SMS::Midpoint_placement<cgal_mesh> placement;
+        const SMS::Bounded_normal_change_filter<> filter;
+        SMS::edge_collapse(
+            m, stop,
+            CGAL::parameters::get_cost(cost).get_placement(placement).filter(filter).visitor(
+                visitor));
     });
 }
 
 run_result run_cgal_gh(const surface& in, std::int64_t target) {
-    cgal_mesh m = to_cgal(in);
-    std::int64_t faces = static_cast<std::int64_t>(m.number_of_faces());
-    std::uint64_t collapses = 0;
-    face_count_visitor visitor;
-    visitor.faces = &faces, visitor.collapses = &collapses;
-    const face_count_stop stop{&faces, target};
-    const SMS::Bounded_normal_change_filter<> filter;
-    run_result out;
-    // Includes creating the policies' per-vertex quadric map; CGAL fills it inside
-    // edge_collapse.
-    out.seconds = timed([&] {
+    return run_cgal(in, target, [](cgal_mesh& m, const auto& stop, const auto& visitor) {
+        // Creating the policies allocates their per-vertex quadric map; CGAL fills it
+        // inside edge_collapse.
         SMS::GarlandHeckbert_plane_policies<cgal_mesh, kernel> gh(m);
+        const SMS::Bounded_normal_change_filter<> filter;
         SMS::edge_collapse(m, stop,
                            CGAL::parameters::get_cost(gh.get_cost())
                                .get_placement(gh.get_placement())
                                .filter(filter)
                                .visitor(visitor));
     });
-    out.output = from_cgal(m);
-    out.extra = ",\"collapses\":" + std::to_string(collapses);
-    return out;
 }
 
 struct om_traits : OpenMesh::DefaultTraits {
@@ -391,13 +394,20 @@ options parse(int argc, char** argv) {
         const std::string a = argv[i];
         if (i + 1 >= argc) usage("missing value after " + a);
         const std::string v = argv[++i];
-        if (a == "--peer") o.peer = v;
-        else if (a == "--input") o.input = v;
-        else if (a == "--ratio") o.ratio = std::stod(v);
-        else if (a == "--threads") o.threads = static_cast<unsigned>(std::stoul(v));
-        else if (a == "--samples") o.samples = std::stod(v);
-        else if (a == "--data") o.data = v;
-        else usage("unknown option " + a);
+        if (a == "--peer")
+            o.peer = v;
+        else if (a == "--input")
+            o.input = v;
+        else if (a == "--ratio")
+            o.ratio = std::stod(v);
+        else if (a == "--threads")
+            o.threads = static_cast<unsigned>(std::stoul(v));
+        else if (a == "--samples")
+            o.samples = std::stod(v);
+        else if (a == "--data")
+            o.data = v;
+        else
+            usage("unknown option " + a);
     }
     if (o.peer.empty()) usage("--peer is required");
     if (!(o.ratio > 0 && o.ratio <= 1)) usage("--ratio must be in (0, 1]");
@@ -411,18 +421,25 @@ options parse(int argc, char** argv) {
 /// One-sided approximate Hausdorff distance from `a` to `b` (samples on `a`).
 double hausdorff(const cgal_mesh& a, const cgal_mesh& b, double per_area) {
     namespace P = CGAL::parameters;
-    return CGAL::Polygon_mesh_processing::approximate_Hausdorff_distance<CGAL::Parallel_if_available_tag>(
-        a, b,
-        P::number_of_points_per_area_unit(per_area)
-            .do_sample_vertices(true)
-            .do_sample_edges(false)
-            .random_seed(20240601));
+    // CGAL picks the sampled faces with the seeded generator but the point inside each face
+    // with its default one: seed that too, so every run samples the same points.
+    CGAL::get_default_random() = CGAL::Random(20240601);
+    return CGAL::Polygon_mesh_processing::approximate_Hausdorff_distance<
+        CGAL::Parallel_if_available_tag>(a, b,
+                                         P::number_of_points_per_area_unit(per_area)
+                                             .do_sample_vertices(true)
+                                             .do_sample_edges(false)
+                                             .random_seed(20240601));
 }
 
 int run(const options& o) {
-    surface in = idas::io::read_surface(o.data);
-    const double area = surface_area(in);
+    // The subdivided inputs lie exactly on armadillo's surface (midpoints of its edges, flat
+    // splits of its faces), so distances to the input are measured to armadillo itself:
+    // the same surface, with a 16x smaller search tree for the x16 input.
+    const surface base = idas::io::read_surface(o.data);
+    const double area = surface_area(base);
     const int levels = o.input == "x1" ? 0 : (o.input == "x4" ? 1 : 2);
+    surface in = base;
     for (int l = 0; l < levels; ++l) in = subdivide(in);
     const double diagonal = bbox_diagonal(in);
     const auto input_faces = static_cast<std::int64_t>(in.faces.size());
@@ -457,32 +474,33 @@ int run(const options& o) {
     }
     const double peak = peak_rss_mb();
 
-    const idas::topology_report topo = idas::diagnose_topology(r.output.vertices.size(), r.output.faces);
+    const idas::topology_report topo =
+        idas::diagnose_topology(r.output.vertices.size(), r.output.faces);
     const auto output_faces = static_cast<std::int64_t>(r.output.faces.size());
 
     double h_out_in = -1, h_in_out = -1, h_seconds = 0;
     if (o.samples > 0 && output_faces > 0) {
         const stopwatch clock;
-        const cgal_mesh a = to_cgal(in), b = to_cgal(r.output);
+        const cgal_mesh a = to_cgal(base), b = to_cgal(r.output);
         const double per_area = o.samples / area;
         h_out_in = hausdorff(b, a, per_area) / diagonal;
         h_in_out = hausdorff(a, b, per_area) / diagonal;
         h_seconds = clock.seconds();
     }
 
-    std::printf("{\"peer\":\"%s\",\"algorithm\":\"%s\",\"input\":\"%s\",\"input_faces\":%lld,"
-                "\"ratio\":%g,\"target_faces\":%lld,\"threads\":%u,\"seconds_algorithm\":%.6f,"
-                "\"output_faces\":%lld,\"output_vertices\":%zu,\"face_error\":%.6g,"
-                "\"hausdorff_out_in\":%.6g,\"hausdorff_symmetric\":%.6g,\"hausdorff_samples_per_area\":%g,"
-                "\"seconds_hausdorff\":%.3f,\"rss_loaded_mb\":%.1f,\"peak_rss_mb\":%.1f,"
-                "\"peak_rss_delta_mb\":%.1f,\"peak_reset\":%s,\"manifold\":%s,\"euler\":%ld%s}\n",
-                o.peer.c_str(), algorithm.c_str(), o.input.c_str(), (long long)input_faces, o.ratio,
-                (long long)target, o.threads, r.seconds, (long long)output_faces,
-                r.output.vertices.size(), double(output_faces - target) / double(target), h_out_in,
-                std::max(h_out_in, h_in_out), o.samples, h_seconds, rss_loaded, peak,
-                peak - rss_loaded, peak_reset ? "true" : "false",
-                topo.editable() ? "true" : "false", static_cast<long>(topo.euler_characteristic),
-                r.extra.c_str());
+    std::printf(
+        "{\"peer\":\"%s\",\"algorithm\":\"%s\",\"input\":\"%s\",\"input_faces\":%lld,"
+        "\"ratio\":%g,\"target_faces\":%lld,\"threads\":%u,\"seconds_algorithm\":%.6f,"
+        "\"output_faces\":%lld,\"output_vertices\":%zu,\"face_error\":%.6g,"
+        "\"hausdorff_out_in\":%.6g,\"hausdorff_symmetric\":%.6g,\"hausdorff_samples_per_area\":%g,"
+        "\"seconds_hausdorff\":%.3f,\"rss_loaded_mb\":%.1f,\"peak_rss_mb\":%.1f,"
+        "\"peak_rss_delta_mb\":%.1f,\"peak_reset\":%s,\"manifold\":%s,\"euler\":%ld%s}\n",
+        o.peer.c_str(), algorithm.c_str(), o.input.c_str(), (long long)input_faces, o.ratio,
+        (long long)target, o.threads, r.seconds, (long long)output_faces, r.output.vertices.size(),
+        double(output_faces - target) / double(target), h_out_in, std::max(h_out_in, h_in_out),
+        o.samples, h_seconds, rss_loaded, peak, peak - rss_loaded, peak_reset ? "true" : "false",
+        topo.editable() ? "true" : "false", static_cast<long>(topo.euler_characteristic),
+        r.extra.c_str());
     return 0;
 }
 

@@ -296,6 +296,8 @@ private:
         std::vector<entry> deferred;
         op_context<Mesh> ctx;
         run_report report;
+        std::atomic<std::uint64_t> successes{0};
+        std::size_t next_purge = 0;
     };
 
     using held_vertices = boost::container::small_vector<index_t, 64>;
@@ -338,6 +340,17 @@ private:
         for (index_t v : held) locks.unlock(v, me);
         held.clear();
     }
+
+    static constexpr std::int64_t pack(std::int64_t faces, std::int64_t vertices) noexcept {
+        return faces * (std::int64_t{1} << 32) + vertices;
+    }
+    static constexpr progress unpack(std::int64_t x) noexcept {
+        const auto vertices =
+            static_cast<std::int64_t>(static_cast<std::int32_t>(static_cast<std::uint32_t>(x)));
+        return {(x - vertices) / (std::int64_t{1} << 32), vertices, 0};
+    }
+    static_assert(unpack(pack(12345, -3)).faces == 12345 && unpack(pack(12345, -3)).vertices == -3);
+    static_assert(unpack(pack(-7, 99)).faces == -7 && unpack(pack(-7, 99)).vertices == 99);
 
     static run_report run_parallel(Mesh& m, Spec& spec, const exec_options& o) {
         const unsigned T = o.threads;
@@ -385,12 +398,29 @@ private:
 
         // Live counts, updated after every success: one atomic add per operation buys an
         // exact view for the stopping criterion.
-        std::atomic<std::int64_t> live_faces{start.faces}, live_vertices{start.vertices};
-        std::atomic<std::uint64_t> live_successes{0};
+        // Faces in the high 32 bits and vertices in the low 32 of one word: a single
+        // contended read-modify-write per success instead of two.
+        std::atomic<std::int64_t> live{pack(start.faces, start.vertices)};
         auto global_progress = [&] {
-            return progress{live_faces.load(std::memory_order_relaxed),
-                            live_vertices.load(std::memory_order_relaxed),
-                            live_successes.load(std::memory_order_relaxed)};
+            progress p = unpack(live.load(std::memory_order_relaxed));
+            for (auto& w : workers) p.successes += w->successes.load(std::memory_order_relaxed);
+            return p;
+        };
+
+        // Each worker purges its own queue of entries whose face version moved on, as the
+        // serial loop does. Versions may be bumped concurrently by other workers, so they
+        // are read with relaxed atomics; a matching version keeps the entry (conservative).
+        auto purge_if_bloated = [&](worker_state& me) {
+            if constexpr (requires(const Mesh& cm) { cm.connectivity().face_version_relaxed(index_t{}); }) {
+                tbb::spin_mutex::scoped_lock lk(me.mutex);
+                if (me.q.size() <= me.next_purge) return;
+                const std::size_t before = me.q.size();
+                me.q.erase_if([&](const entry& x) {
+                    return m.connectivity().face_version_relaxed(x.tuple.fid) != x.tuple.version;
+                });
+                me.report.purged += before - me.q.size();
+                me.next_purge = me.q.size() + me.q.size() / 2 + 4096;
+            }
         };
 
         auto drain = [&](unsigned w) {
@@ -479,15 +509,16 @@ private:
                     }
                     const std::int64_t dfaces = me.ctx.face_delta - fd,
                                        dverts = me.ctx.vertex_delta - vd;
-                    const progress now{
-                        live_faces.fetch_add(dfaces, std::memory_order_relaxed) + dfaces,
-                        live_vertices.fetch_add(dverts, std::memory_order_relaxed) + dverts,
-                        live_successes.fetch_add(1, std::memory_order_relaxed) + 1};
+                    const std::int64_t delta = pack(dfaces, dverts);
+                    progress now = unpack(live.fetch_add(delta, std::memory_order_relaxed) + delta);
+                    me.successes.store(me.report.succeeded, std::memory_order_relaxed); // owner writes only
                     if (goal_reached(spec, now)) stop.store(true, std::memory_order_relaxed);
                     if (++since_check >= o.check_every) {
                         since_check = 0;
+                        now.successes = global_progress().successes;
                         if (should_stop(spec, now)) stop.store(true, std::memory_order_relaxed);
                     }
+                    purge_if_bloated(me);
                 });
             }
         };
@@ -499,7 +530,7 @@ private:
         report.pushed = initial_count;
         for (auto& w : workers) {
             auto& r = w->report;
-            report.pushed += r.pushed, report.popped += r.popped, report.stale += r.stale,
+            report.pushed += r.pushed, report.popped += r.popped, report.purged += r.purged, report.stale += r.stale,
                 report.skipped += r.skipped;
             report.attempted += r.attempted, report.succeeded += r.succeeded,
                 report.refused += r.refused;

@@ -8,6 +8,7 @@
 #include <boost/container/small_vector.hpp>
 
 #include <algorithm>
+#include <atomic>
 #include <cassert>
 #include <span>
 #include <vector>
@@ -55,6 +56,12 @@ public:
     bool face_alive(index_t f) const noexcept { return fv_[f][0] != invalid_index; }
     const tri_indices& face_vertices(index_t f) const noexcept { return fv_[f]; }
     version_t face_version(index_t f) const noexcept { return version_[f]; }
+    /// A version read that may race with the face's owner bumping it: parallel workers
+    /// use it to purge stale entries from their queues without holding the face's locks.
+    /// (Versions are written through relaxed atomics, which cost nothing extra on x86.)
+    version_t face_version_relaxed(index_t f) const noexcept {
+        return std::atomic_ref<version_t>(const_cast<version_t&>(version_[f])).load(std::memory_order_relaxed);
+    }
     std::span<const index_t> vertex_faces(index_t v) const noexcept { return {vf_[v].data(), vf_[v].size()}; }
 
     /// The face across local edge `le` of `f`, or invalid_index on the boundary.
@@ -165,14 +172,14 @@ public:
             log.push_back({undo_entry::what::face_from_pool, id});
             save_face(id, log);
             fv_[id] = f;
-            ++version_[id];
+            bump_version(id);
         } else if (recycle_ && !free_faces_.empty()) {
             id = free_faces_.back();
             free_faces_.pop_back();
             log.push_back({undo_entry::what::free_face_popped, id});
             save_face(id, log);
             fv_[id] = f;
-            ++version_[id];
+            bump_version(id);
         } else {
             fv_.push_back(f);
             version_.push_back(0);
@@ -186,7 +193,7 @@ public:
         save_face(f, log);
         for (index_t v : fv_[f]) vf_erase(v, f, log);
         fv_[f] = {invalid_index, invalid_index, invalid_index};
-        ++version_[f];
+        bump_version(f);
         if (recycle_) {
             free_faces_.push_back(f);
             log.push_back({undo_entry::what::free_face_pushed, f});
@@ -201,12 +208,12 @@ public:
         for (index_t v : nv)
             if (!contains(old, v)) vf_insert(v, f, log);
         fv_[f] = nv;
-        ++version_[f];
+        bump_version(f);
     }
     /// Marks a face changed (its geometry moved) so tuples made before go stale.
     void touch_face(index_t f, undo_log& log) {
         save_face(f, log);
-        ++version_[f];
+        bump_version(f);
     }
 
     void rollback(undo_log& log, std::size_t mark) {
@@ -215,7 +222,7 @@ public:
             const undo_entry e = log.back();
             log.pop_back();
             switch (e.kind) {
-            case w::face_set: fv_[e.a] = e.verts, version_[e.a] = e.version; break;
+            case w::face_set: fv_[e.a] = e.verts, set_version(e.a, e.version); break;
             case w::face_added:
                 assert(e.a + 1 == fv_.size());
                 fv_.pop_back(), version_.pop_back();
@@ -256,6 +263,10 @@ public:
 
 private:
     static bool contains(const tri_indices& f, index_t v) noexcept { return f[0] == v || f[1] == v || f[2] == v; }
+    void set_version(index_t f, version_t v) noexcept {
+        std::atomic_ref<version_t>(version_[f]).store(v, std::memory_order_relaxed);
+    }
+    void bump_version(index_t f) noexcept { set_version(f, version_[f] + 1); }
     void save_face(index_t f, undo_log& log) {
         log.push_back({undo_entry::what::face_set, f, 0, 0, fv_[f], version_[f]});
     }
