@@ -81,55 +81,89 @@ def fmt_rate(x):
             return f"{x / scale:.1f} {unit}/s"
     return f"{x:.0f} /s"
 
+BACKENDS = ["indexed", "corner_table"]
+
+def split_backend(name):
+    """'op/split_edge/commit/indexed' -> ('op/split_edge/commit', 'indexed')."""
+    head, _, tail = name.rpartition("/")
+    return (head, tail) if tail in BACKENDS else (name, "")
+
 def summary(path):
     runs = [b for b in json.load(open(path))["benchmarks"] if b.get("run_type", "iteration") == "iteration"]
-    by = {b["name"]: b for b in runs}
+    by = {}
+    order = []
+    for b in runs:
+        base, backend = split_backend(b["name"])
+        if base not in by:
+            by[base] = {}
+            order.append(base)
+        by[base][backend] = b
     out = []
-    nav = [b for b in runs if b["name"].startswith("nav/")]
+
+    def ns(b):
+        return 1e9 / b["items_per_second"]
+
+    def ratio(row):
+        if all(k in row for k in BACKENDS):
+            return f"{ns(row['corner_table']) / ns(row['indexed']):.2f}"
+        return ""
+
+    nav = [n for n in order if n.startswith("nav/")]
     if nav:
-        out += ["Navigation (items are switches, checks, vertices or edges; CPU time):", "",
-                "| benchmark | items/s | ns/item | allocs/item |", "|---|---:|---:|---:|"]
-        for b in nav:
-            r = b["items_per_second"]
-            out.append(f"| `{b['name']}` | {fmt_rate(r)} | {1e9 / r:.2f} | {b.get('allocs/op', 0):.3g} |")
+        out += ["Navigation, ns per item (items are switches, checks, vertices, faces or edges; CPU",
+                "time); the last column is corner_table / indexed, below 1 where the corner table is",
+                "faster. No row allocates.", "",
+                "| benchmark | indexed | corner_table | ratio |", "|---|---:|---:|---:|"]
+        for n in nav:
+            row = by[n]
+            cells = [f"{ns(row[k]):.2f}" if k in row else "" for k in BACKENDS]
+            out.append(f"| `{n}` | " + " | ".join(cells) + f" | {ratio(row)} |")
         out.append("")
-    ops = [b for b in runs if b["name"].startswith("op/")]
+    ops = [n for n in order if n.startswith("op/")]
     if ops:
-        modes = ["commit", "commit+no_normal_flip", "rollback_after", "rollback_invariant"]
-        names = []
-        for b in ops:
-            n = b["name"].split("/")[1]
-            if n not in names:
-                names.append(n)
-        out += ["Operations, ns per operation (CPU time); allocs/op in brackets:", "",
-                "| operation | " + " | ".join(modes) + " |", "|---|" + "---:|" * len(modes)]
-        for n in names:
+        out += ["Operations, ns per operation (CPU time; allocs/op in brackets, `ok` = the fraction",
+                "no_normal_flip let through); the last column is corner_table / indexed:", "",
+                "| operation | mode | indexed | corner_table | ratio |", "|---|---|---:|---:|---:|"]
+        for n in ops:
+            _, op, mode = n.split("/", 2)
+            row = by[n]
             cells = []
-            for m in modes:
-                b = by.get(f"op/{n}/{m}")
+            for k in BACKENDS:
+                b = row.get(k)
                 if b is None:
                     cells.append("")
                     continue
-                ns = 1e9 / b["items_per_second"]
-                ok = b.get("ok", 1)
-                note = f" ok {ok:.3f}" if m == "commit+no_normal_flip" else ""
-                cells.append(f"{ns:.0f} ({b.get('allocs/op', 0):.2g}){note}")
-            out.append(f"| `{n}` | " + " | ".join(cells) + " |")
+                note = f" ok {b.get('ok', 1):.3f}" if mode == "commit+no_normal_flip" else ""
+                cells.append(f"{ns(b):.0f} ({b.get('allocs/op', 0):.2g}){note}")
+            out.append(f"| `{op}` | {mode} | " + " | ".join(cells) + f" | {ratio(row)} |")
         out.append("")
-    pairs = [b for b in runs if b["name"].startswith(("pair/", "op_in_mesh_order/"))]
+    pairs = [n for n in order if n.startswith(("pair/", "op_in_mesh_order/"))]
     if pairs:
-        out += ["Steady-state pairs, and operations visited in mesh order instead of random order:", "",
-                "| benchmark | ns per operation | allocs/op |", "|---|---:|---:|"]
-        for b in pairs:
-            out.append(f"| `{b['name']}` | {1e9 / b['items_per_second']:.0f} | {b.get('allocs/op', 0):.2g} |")
+        out += ["Steady-state pairs, and operations visited in mesh order instead of random order",
+                "(ns per operation, allocs/op in brackets):", "",
+                "| benchmark | indexed | corner_table | ratio |", "|---|---:|---:|---:|"]
+        for n in pairs:
+            row = by[n]
+            cells = [f"{ns(row[k]):.0f} ({row[k].get('allocs/op', 0):.2g})" if k in row else "" for k in BACKENDS]
+            out.append(f"| `{n}` | " + " | ".join(cells) + f" | {ratio(row)} |")
         out.append("")
-    mem = by.get("mem/connectivity")
+    mem = by.get("mem/connectivity", {})
     if mem:
-        out.append(f"Connectivity memory: **{mem['bytes/face']:.1f} bytes/face** "
-                   f"({mem['bytes/vertex']:.1f} bytes/vertex); vertex positions add "
-                   f"{mem['attr_bytes/face']:.1f} bytes/face.")
+        out += ["Connectivity memory (vertex positions add the same to both):", "",
+                "| backend | bytes/face | bytes/vertex | positions, bytes/face |", "|---|---:|---:|---:|"]
+        for k in BACKENDS:
+            if k in mem:
+                m = mem[k]
+                out.append(f"| {k} | **{m['bytes/face']:.1f}** | {m['bytes/vertex']:.1f} | {m['attr_bytes/face']:.1f} |")
         out.append("")
     return out
+
+def kept_analysis(title):
+    """The hand-written part of a section, between <!-- analysis --> and <!-- /analysis -->."""
+    if not os.path.exists(results):
+        return []
+    m = re.search(r"(?ms)^" + re.escape(title) + r"\n.*?(<!-- analysis -->.*?<!-- /analysis -->)", open(results).read())
+    return [m.group(1), ""] if m else []
 
 def header(cmd):
     lines = [f"- Date: {os.environ['DATE']}",
@@ -149,6 +183,7 @@ core = ["## Triangle core", "",
         "as DEBUG\" warning in the output is about Debian's libbenchmark package, not idas.", ""]
 core += header(os.environ["CORE_CMD"])
 core += summary(os.path.join(work, "core.json"))
+core += kept_analysis("## Triangle core")
 core += ["Full output:", "", "```text", open(os.path.join(work, "core.txt")).read().rstrip(), "```", ""]
 sections = {"## Triangle core": "\n".join(core)}
 

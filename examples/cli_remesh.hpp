@@ -1,11 +1,7 @@
 // `idas remesh`: isotropic remeshing from the command line. Included by idas_cli.cpp
-// inside its anonymous namespace, after load/save/compute_stats and friends.
+// inside its anonymous namespace, after load/save/compute_stats and friends (which is
+// why it includes nothing itself: idas_cli.cpp includes the library headers it needs).
 #pragma once
-
-#include <idas/algorithms/isotropic_remeshing.hpp>
-#if IDAS_CLI_HAVE_CGAL
-#include <idas/invariants/envelope.hpp>
-#endif
 
 struct remesh_arguments {
     std::string in, out;
@@ -38,13 +34,13 @@ int run_remesh(const remesh_arguments& a) {
         throw idas::input_error("--edge-length must be positive");
     const idas::io::surface s = load(a.in);
     const mesh_stats in_stats = compute_stats(s);
-    std::optional<mesh_t> built;
+    std::optional<idas::tri_mesh<>> built;
     try {
         built.emplace(s.vertices, s.faces);
     } catch (const idas::input_error& e) {
         throw idas::input_error(a.in + ": " + e.what());
     }
-    mesh_t& m = *built;
+    auto& m = *built;
     idas::algorithms::remeshing_options o;
     o.target_length = a.absolute ? a.edge_length : a.edge_length * in_stats.diagonal;
     o.iterations = a.iterations;

@@ -2,15 +2,22 @@
 //
 //   idas info IN [--json]                      statistics and topology of a mesh file
 //   idas convert IN OUT [--ascii]              any supported format to any other
-//   idas demo IN OUT [--json] [--seed S] [--ops N] [--ascii]
+//   idas demo IN OUT [--json] [--seed S] [--ops N] [--ascii] [--backend B]
 //                                              random local operations guarded by invariants
+//   idas decimate IN OUT (--ratio R | --faces N) [--algorithm A] [--threads T] [--backend B]
+//                                              shortest edge collapse or QSlim
+// B is the connectivity backend, indexed (default) or corner-table.
 //
 // Exit codes: 0 success; 2 bad input or usage; 1 any other failure. Errors go to stderr
 // and start with "idas: error: "; with --json, stdout holds exactly one JSON object.
+#include <idas/algorithms/isotropic_remeshing.hpp>
 #include <idas/algorithms/qslim.hpp>
 #include <idas/algorithms/shortest_edge_collapse.hpp>
 #include <idas/idas.hpp>
 #include <idas/io/io.hpp>
+#if IDAS_CLI_HAVE_CGAL
+#include <idas/invariants/envelope.hpp>
+#endif
 
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
@@ -30,6 +37,7 @@
 #include <optional>
 #include <random>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include <unistd.h> // isatty: the progress bar is drawn on terminals only
@@ -37,11 +45,24 @@
 namespace {
 
 using json = nlohmann::ordered_json;
-using mesh_t = idas::tri_mesh<>;
-using tuple_t = mesh_t::tuple;
+using tuple_t = idas::tri_tuple;
 using result_t = idas::op_result<tuple_t>;
 using idas::index_t;
 using idas::vec3;
+
+// ---- connectivity backends ------------------------------------------------------------------
+
+/// `--backend`: the editing commands (demo, decimate) run on either triangle backend;
+/// each is a separate instantiation of the same code.
+const std::vector<std::string> backend_names = {"indexed", "corner-table"};
+
+/// Calls fn(std::type_identity<Mesh>{}) with the mesh type the backend name selects.
+template <class Fn>
+decltype(auto) with_backend(const std::string& backend, Fn&& fn) {
+    if (backend == "corner-table")
+        return fn(std::type_identity<idas::tri_mesh<idas::backend::corner_table_tri>>{});
+    return fn(std::type_identity<idas::tri_mesh<idas::backend::indexed_tri>>{});
+}
 
 class stopwatch {
 public:
@@ -328,7 +349,8 @@ int run_convert(const std::string& in, const std::string& out, bool ascii) {
 
 // ---- demo ----------------------------------------------------------------------------------
 
-std::size_t ring_size(const mesh_t& m, index_t v) {
+template <class Mesh>
+std::size_t ring_size(const Mesh& m, index_t v) {
     boost::container::small_vector<index_t, 24> ring;
     m.one_ring_vertices(v, ring);
     return ring.size();
@@ -345,18 +367,21 @@ struct demo_spec {
     }
 
     // Split at the midpoint (computed on the old mesh, placed on the new vertex).
-    std::optional<vec3> before(idas::op::split_edge, const mesh_t& m, const tuple_t& t) const {
+    template <class Mesh>
+    std::optional<vec3> before(idas::op::split_edge, const Mesh& m, const tuple_t& t) const {
         const auto [a, b] = m.edge_vertices(t);
         return (m.position(a) + m.position(b)) * 0.5;
     }
-    bool after(idas::op::split_edge, mesh_t& m, const result_t& r, const vec3& mid) const {
+    template <class Mesh>
+    bool after(idas::op::split_edge, Mesh& m, const result_t& r, const vec3& mid) const {
         m.positions().set(r.anchor.vid, mid);
         return true;
     }
 
     // Collapse short edges to their midpoint; a boundary vertex keeps its place so the
     // boundary does not move inwards.
-    std::optional<vec3> before(idas::op::collapse_edge, const mesh_t& m, const tuple_t& t) const {
+    template <class Mesh>
+    std::optional<vec3> before(idas::op::collapse_edge, const Mesh& m, const tuple_t& t) const {
         const auto [a, b] = m.edge_vertices(t);
         const vec3 pa = m.position(a), pb = m.position(b);
         if (!(idas::norm(pa - pb) < collapse_below)) return std::nullopt;
@@ -365,14 +390,16 @@ struct demo_spec {
         if (bb && !ba) return pb;
         return (pa + pb) * 0.5;
     }
-    bool after(idas::op::collapse_edge, mesh_t& m, const result_t& r, const vec3& p) const {
+    template <class Mesh>
+    bool after(idas::op::collapse_edge, Mesh& m, const result_t& r, const vec3& p) const {
         m.positions().set(r.anchor.vid, p);
         return true;
     }
 
     // Swap only when the valences of the four vertices get closer to their ideal
     // (6 inside, 4 on the boundary).
-    bool before(idas::op::swap_edge, const mesh_t& m, const tuple_t& t) const {
+    template <class Mesh>
+    bool before(idas::op::swap_edge, const Mesh& m, const tuple_t& t) const {
         const auto [a, b] = m.edge_vertices(t);
         const auto g = m.switch_face(t);
         if (!g) return false;
@@ -388,7 +415,8 @@ struct demo_spec {
 
     // Tangential smoothing: move an interior vertex towards the average of its one-ring,
     // removing the component along the vertex normal so the surface keeps its shape.
-    std::optional<vec3> before(idas::op::smooth_vertex, const mesh_t& m, const tuple_t& t) const {
+    template <class Mesh>
+    std::optional<vec3> before(idas::op::smooth_vertex, const Mesh& m, const tuple_t& t) const {
         const index_t v = t.vid;
         if (m.is_boundary_vertex(v)) return std::nullopt;
         boost::container::small_vector<index_t, 24> ring;
@@ -404,7 +432,8 @@ struct demo_spec {
         if (const double nn = idas::squared_norm(n); nn > 0) step -= n * (idas::dot(step, n) / nn);
         return p + step;
     }
-    bool after(idas::op::smooth_vertex, mesh_t& m, const result_t& r, const vec3& p) const {
+    template <class Mesh>
+    bool after(idas::op::smooth_vertex, Mesh& m, const result_t& r, const vec3& p) const {
         m.positions().set(r.anchor.vid, p);
         return true;
     }
@@ -412,7 +441,8 @@ struct demo_spec {
 
 /// A uniformly random live face; a few random probes, then a scan, so a mesh with many
 /// dead slots (or none alive) cannot stall the demo.
-std::optional<index_t> random_live_face(const mesh_t& m, std::mt19937_64& rng) {
+template <class Mesh>
+std::optional<index_t> random_live_face(const Mesh& m, std::mt19937_64& rng) {
     const index_t slots = m.face_slots();
     if (slots == 0) return std::nullopt;
     for (int probe = 0; probe < 64; ++probe)
@@ -430,14 +460,17 @@ struct op_counts {
     std::size_t rejected() const { return attempted - accepted; }
 };
 
+template <class Mesh>
 int run_demo(const std::string& in, const std::string& out, bool as_json, std::uint64_t seed,
-             std::size_t n_ops, bool ascii) {
+             std::size_t n_ops, bool ascii, const std::string& backend) {
+    using mesh_t = Mesh;
     const stopwatch total;
     json j;
     j["input"] = in;
     j["output"] = out;
     j["seed"] = seed;
     j["ops"] = n_ops;
+    j["backend"] = backend;
 
     stopwatch clock;
     const idas::io::surface s = load(in);
@@ -457,7 +490,8 @@ int run_demo(const std::string& in, const std::string& out, bool as_json, std::u
     if (!as_json) {
         fmt::print("{}\n", in);
         print_stats(in_stats);
-        fmt::print("running {} random operations (seed {})\n", n_ops, seed);
+        fmt::print("running {} random operations (seed {}) on the {} backend\n", n_ops, seed,
+                   backend);
     }
 
     // Random operations: pick a kind, then a random live face and a corner or edge of it.
@@ -569,8 +603,8 @@ struct with_progress_bar : Base {
     }
 };
 
-template <class Algorithm, class Spec>
-idas::run_report decimate_with(mesh_t& m, std::int64_t target, unsigned threads) {
+template <class Algorithm, class Spec, class Mesh>
+idas::run_report decimate_with(Mesh& m, std::int64_t target, unsigned threads) {
     with_progress_bar<Spec> spec;
     spec.target_faces = target;
     spec.start_faces = static_cast<std::int64_t>(m.n_faces());
@@ -582,9 +616,12 @@ idas::run_report decimate_with(mesh_t& m, std::int64_t target, unsigned threads)
     return report;
 }
 
-int run_decimate(const std::string& in, const std::string& out, const std::string& algorithm, double ratio,
-                 std::int64_t faces, unsigned threads, bool as_json, bool ascii) {
+template <class Mesh>
+int run_decimate(const std::string& in, const std::string& out, const std::string& algorithm,
+                 double ratio, std::int64_t faces, unsigned threads, bool as_json, bool ascii,
+                 const std::string& backend) {
     using namespace idas::algorithms;
+    using mesh_t = Mesh;
     const stopwatch total;
     idas::io::format_of(out); // an unknown output extension fails before any work
     if (threads == 0) throw idas::input_error("--threads must be at least 1");
@@ -617,6 +654,7 @@ int run_decimate(const std::string& in, const std::string& out, const std::strin
         j["input"] = in;
         j["output"] = out;
         j["algorithm"] = algorithm;
+        j["backend"] = backend;
         j["input_faces"] = input_faces;
         j["target_faces"] = target;
         j["output_faces"] = output_faces;
@@ -631,15 +669,18 @@ int run_decimate(const std::string& in, const std::string& out, const std::strin
         j["deferred_to_serial"] = r.deferred_to_serial;
         fmt::print("{}\n", j.dump(2));
     } else {
-        fmt::print("{}: {} -> {} faces (target {}) by {} on {} thread{} in {:.3f} s ({:.3f} s total)\n", in,
-                   input_faces, output_faces, target, algorithm, threads, threads == 1 ? "" : "s", r.seconds,
-                   total.seconds());
+        fmt::print("{}: {} -> {} faces (target {}) by {} on {} thread{} ({} backend) in {:.3f} s "
+                   "({:.3f} s total)\n",
+                   in, input_faces, output_faces, target, algorithm, threads,
+                   threads == 1 ? "" : "s", backend, r.seconds, total.seconds());
         fmt::print("  collapses {}, refused {}, stale queue entries {}, lock failures {}\n", r.succeeded,
                    r.refused, r.stale, r.lock_failures);
         fmt::print("  written to {}\n", out);
     }
     return 0;
 }
+
+#include "cli_remesh.hpp"
 
 // ---- main ----------------------------------------------------------------------------------
 
@@ -689,6 +730,10 @@ int run(int argc, char** argv) {
         ->check(unsigned_integer)
         ->capture_default_str();
     demo->add_flag("--ascii", ascii, "write PLY and STL as text instead of binary");
+    std::string backend = "indexed";
+    demo->add_option("--backend", backend, "connectivity backend: indexed or corner-table")
+        ->check(CLI::IsMember(backend_names))
+        ->capture_default_str();
 
     std::string algorithm = "qslim";
     double ratio = -1;
@@ -706,10 +751,29 @@ int run(int argc, char** argv) {
     decimate->add_option("--threads", threads, "worker threads")->check(unsigned_integer)->capture_default_str();
     decimate->add_flag("--json", as_json, "print one JSON object instead of text");
     decimate->add_flag("--ascii", ascii, "write PLY and STL as text instead of binary");
+    decimate->add_option("--backend", backend, "connectivity backend: indexed or corner-table")
+        ->check(CLI::IsMember(backend_names))
+        ->capture_default_str();
     decimate->callback([&] {
         if (ratio_opt->count() + faces_opt->count() != 1)
             throw CLI::ValidationError("decimate", "give exactly one of --ratio R or --faces N");
     });
+
+    remesh_arguments ra;
+    auto* remesh = app.add_subcommand("remesh", "Isotropic remeshing (Botsch-Kobbelt) to a target edge length");
+    remesh->add_option("IN", ra.in, "input mesh file (an orientable 2-manifold)")->required();
+    remesh->add_option("OUT", ra.out, "output mesh file")->required();
+    remesh->add_option("--edge-length", ra.edge_length, "target edge length, relative to the bounding-box diagonal")
+        ->capture_default_str();
+    remesh->add_flag("--absolute", ra.absolute, "--edge-length is absolute, not relative");
+    remesh->add_option("--iterations", ra.iterations, "iterations")->check(unsigned_integer)->capture_default_str();
+    remesh->add_option("--threads", ra.threads, "worker threads")->check(unsigned_integer)->capture_default_str();
+    remesh->add_option("--envelope", ra.envelope,
+                       "keep every new triangle within EPS (relative to the diagonal) of the input, exactly");
+    remesh->add_option("--feature-angle", ra.feature_angle, "keep edges sharper than this dihedral angle (degrees)");
+    remesh->add_flag("!--free-boundary", ra.keep_boundary, "let boundary vertices move and vanish");
+    remesh->add_flag("--json", ra.as_json, "print one JSON object instead of text");
+    remesh->add_flag("--ascii", ra.ascii, "write PLY and STL as text instead of binary");
 
     try {
         app.parse(argc, argv);
@@ -725,10 +789,16 @@ int run(int argc, char** argv) {
     }
 
     if (info->parsed()) return run_info(in, as_json);
+    if (remesh->parsed()) return run_remesh(ra);
     if (decimate->parsed())
-        return run_decimate(in, out, algorithm, ratio, target_faces, threads, as_json, ascii);
+        return with_backend(backend, [&]<class Mesh>(std::type_identity<Mesh>) {
+            return run_decimate<Mesh>(in, out, algorithm, ratio, target_faces, threads, as_json,
+                                      ascii, backend);
+        });
     if (convert->parsed()) return run_convert(in, out, ascii);
-    return run_demo(in, out, as_json, seed, n_ops, ascii);
+    return with_backend(backend, [&]<class Mesh>(std::type_identity<Mesh>) {
+        return run_demo<Mesh>(in, out, as_json, seed, n_ops, ascii, backend);
+    });
 }
 
 } // namespace

@@ -11,7 +11,7 @@ packages=(
   # design-card packages: the core headers need only these
   libtbb-dev libeigen3-dev libgmp-dev libboost-dev libmetis-dev doctest-dev
   # the tool, tests and benchmarks
-  libcli11-dev libfmt-dev nlohmann-json3-dev libbenchmark-dev
+  libcli11-dev libfmt-dev nlohmann-json3-dev libbenchmark-dev python3-matplotlib
   # peers and the optional CGAL-based headers
   libcgal-dev libopenmesh-dev libmpfr-dev
   clang-format

@@ -234,6 +234,58 @@ expect_error "decimate unknown algorithm" 2
 run decimate "$DATA/bunny.off" "$TMP/x.obj" --ratio 0.5 --threads 0
 expect_error "decimate zero threads" 2
 
+# ---- backends --------------------------------------------------------------------------------
+
+# Both connectivity backends run demo and decimate; the result is a valid mesh either way.
+run decimate "$DATA/bunny.obj" "$TMP/dec_ct.ply" --ratio 0.1 --backend corner-table --json
+expect_rc "decimate --backend corner-table" 0
+expect_one_json "decimate --backend corner-table"
+expect_field "decimate --backend corner-table" "d['backend']" corner-table
+expect_field "decimate --backend corner-table" "abs(d['output_faces'] - 6945) <= 1" True
+run info "$TMP/dec_ct.ply" --json
+expect_field "decimated corner-table" "d['euler_characteristic']" -3
+expect_field "decimated corner-table" "d['boundary_loops']" 5
+expect_field "decimated corner-table" "d['nonmanifold_edges'] + d['nonmanifold_vertices']" 0
+run decimate "$DATA/bunny.obj" "$TMP/dec_ct2.ply" --ratio 0.1 --backend corner-table --threads 2 --algorithm shortest-edge --json
+expect_rc "decimate --backend corner-table --threads 2" 0
+expect_field "decimate --backend corner-table --threads 2" "abs(d['output_faces'] - 6945) <= 69" True
+run decimate "$DATA/bunny.off" "$TMP/det_ct.obj" --faces 1000 --backend corner-table
+run info "$TMP/det_ct.obj" --json
+expect_field "decimate --faces --backend corner-table" "d['faces']" 1000
+run decimate "$DATA/bunny.obj" "$TMP/dec_idx.ply" --ratio 0.1 --backend indexed --json
+expect_field "decimate --backend indexed" "d['backend']" indexed
+
+run demo "$DATA/bunny.off" "$TMP/demo_ct.obj" --json --ops 1000 --seed 3 --backend corner-table
+expect_rc "demo --backend corner-table" 0
+expect_field "demo --backend corner-table" 'd["backend"]' corner-table
+expect_field "demo --backend corner-table" 'sum(o["attempted"] for o in d["operations"].values())' 1000
+run info "$TMP/demo_ct.obj" --json
+expect_field "demo corner-table output" 'd["manifold"]' True
+expect_field "demo corner-table output" 'd["closed"]' True
+expect_field "demo corner-table output" 'd["euler_characteristic"]' 2
+run demo "$DATA/bunny.off" "$TMP/demo_ct2.obj" --json --ops 1000 --seed 3 --backend corner-table
+if cmp -s "$TMP/demo_ct.obj" "$TMP/demo_ct2.obj"; then ok; else fail "demo --backend corner-table: not deterministic for a fixed seed"; fi
+
+run demo "$DATA/bunny.off" "$TMP/x.obj" --backend linked-list
+expect_error "demo unknown backend" 2 'backend'
+run decimate "$DATA/bunny.off" "$TMP/x.obj" --ratio 0.5 --backend linked-list
+expect_error "decimate unknown backend" 2 'backend'
+
+# ---- remesh ----------------------------------------------------------------------------------
+
+run remesh "$DATA/bunny.off" "$TMP/rem.ply" --edge-length 0.02 --iterations 3 --threads 2 --json
+expect_rc "remesh" 0
+expect_one_json "remesh"
+expect_field "remesh" "d['threads']" 2
+expect_field "remesh" "d['output_stats']['valence']['interior_valence6_fraction'] > 0.6" True
+expect_field "remesh" "abs(d['output_stats']['edge_length']['mean'] / d['target_edge_length'] - 1) < 0.1" True
+run info "$TMP/rem.ply" --json
+expect_field "remeshed" "d['euler_characteristic']" 2
+run remesh "$DATA/37989_sf.obj" "$TMP/rem_nm.obj"
+expect_error "remesh non-manifold" 2 'non-manifold'
+run remesh "$DATA/bunny.off" "$TMP/x.obj" --edge-length 0
+expect_error "remesh zero length" 2 'edge-length'
+
 # ---- help ------------------------------------------------------------------------------------
 
 run --help

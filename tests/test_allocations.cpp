@@ -83,7 +83,8 @@ TEST_CASE_TEMPLATE("navigation allocates nothing", Mesh, IDAS_TRI_MESHES) {
     CHECK(sum > 0);
 }
 
-TEST_CASE_TEMPLATE("operations and rollbacks allocate nothing in steady state", Mesh, IDAS_TRI_MESHES) {
+TEST_CASE_TEMPLATE("operations and rollbacks allocate nothing in steady state", Mesh,
+                   IDAS_TRI_MESHES) {
     auto m = idas::test::load<Mesh>("bunny.obj");
     idas::test::midpoint_spec spec;
     spec.attach(m);

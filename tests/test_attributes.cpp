@@ -36,7 +36,8 @@ TEST_CASE_TEMPLATE("attribute writes are journaled only inside operations", Mesh
     CHECK(m.position(1) == vec3{1, 0, 0});
 }
 
-TEST_CASE_TEMPLATE("consolidate compacts slots and carries attributes along", Mesh, IDAS_TRI_MESHES) {
+TEST_CASE_TEMPLATE("consolidate compacts slots and carries attributes along", Mesh,
+                   IDAS_TRI_MESHES) {
     auto m = idas::test::load<Mesh>("bunny.off");
     auto id = m.template add_vertex_attribute<index_t>("original_id");
     auto fid = m.template add_face_attribute<index_t>("original_face");

@@ -95,7 +95,8 @@ TEST_CASE_TEMPLATE("random operations keep armadillo (closed) valid", Mesh, IDAS
     CHECK(st.accepted > 2000);
 }
 
-TEST_CASE_TEMPLATE("random operations keep blub valid, and 100071 (genus 3)", Mesh, IDAS_TRI_MESHES) {
+TEST_CASE_TEMPLATE("random operations keep blub valid, and 100071 (genus 3)", Mesh,
+                   IDAS_TRI_MESHES) {
     CHECK(run_sequence<Mesh>("blub.obj", 3, 4000, 500, 0.0, false).accepted > 2000);
     CHECK(run_sequence<Mesh>("100071_sf.obj", 4, 3000, 500, 0.0, false).accepted > 1000);
 }

@@ -81,7 +81,8 @@ TEST_CASE_TEMPLATE("tuple navigation obeys the switch identities", Mesh, IDAS_TR
     CHECK(ids.size() == 16);
 }
 
-TEST_CASE_TEMPLATE("operations make earlier tuples stale and return the new faces", Mesh, IDAS_TRI_MESHES) {
+TEST_CASE_TEMPLATE("operations make earlier tuples stale and return the new faces", Mesh,
+                   IDAS_TRI_MESHES) {
     auto m = octahedron<Mesh>();
     const auto t = m.tuple_from_face(0);
     const auto other = m.tuple_from_face(6); // far from edge 0
@@ -174,7 +175,8 @@ struct no_new_vertices_above_plane {
 };
 } // namespace
 
-TEST_CASE_TEMPLATE("a user invariant vetoes operations and they roll back exactly", Mesh, IDAS_TRI_MESHES) {
+TEST_CASE_TEMPLATE("a user invariant vetoes operations and they roll back exactly", Mesh,
+                   IDAS_TRI_MESHES) {
     static_assert(invariant<no_new_vertices_above_plane>);
     static_assert(invariant_for<no_new_vertices_above_plane, op::split_edge, Mesh>);
     struct spec {
@@ -220,7 +222,8 @@ TEST_CASE_TEMPLATE("a user invariant vetoes operations and they roll back exactl
     CHECK_FALSE(find_inconsistency(m).has_value());
 }
 
-TEST_CASE_TEMPLATE("non-manifold input is refused with a message that says where", Mesh, IDAS_TRI_MESHES) {
+TEST_CASE_TEMPLATE("non-manifold input is refused with a message that says where", Mesh,
+                   IDAS_TRI_MESHES) {
     auto expect_refusal = [](const std::string& file, const std::string& what) {
         const auto s = io::read_surface(idas::test::data(file));
         try {
@@ -245,8 +248,7 @@ TEST_CASE_TEMPLATE("non-manifold input is refused with a message that says where
     const auto q = io::read_surface(idas::test::data("edge_with_four_triangles.off"));
     CHECK(diagnose_topology(q.vertices.size(), q.faces).nonmanifold_edges == 1);
 
-    CHECK_THROWS_AS(Mesh({{0, 0, 0}, {1, 0, 0}, {0, std::nan(""), 0}}, {{0, 1, 2}}),
-                    input_error);
+    CHECK_THROWS_AS(Mesh({{0, 0, 0}, {1, 0, 0}, {0, std::nan(""), 0}}, {{0, 1, 2}}), input_error);
     CHECK_THROWS_AS(Mesh({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}, {{0, 1, 7}}), input_error);
 }
 
@@ -288,8 +290,9 @@ std::set<std::tuple<tri_indices, index_t, index_t, tri_indices>> adjacency(const
         for (int k = 0; k < 3; ++k, e = m.switch_edge(m.switch_vertex(e))) {
             const auto [a, b] = m.edge_vertices(e);
             const auto g = m.switch_face(e);
-            out.insert({key(e.fid), a, b,
-                        g ? key(g->fid) : tri_indices{invalid_index, invalid_index, invalid_index}});
+            out.insert(
+                {key(e.fid), a, b,
+                 g ? key(g->fid) : tri_indices{invalid_index, invalid_index, invalid_index}});
         }
     });
     return out;
@@ -344,6 +347,15 @@ TEST_CASE_TEMPLATE("raw edits keep neighbours right, also across boundaries made
     // new one, the second closes everything).
     auto m = idas::test::load<Mesh>("bunny.off");
     const auto bunny = adjacency(m);
+    // Local checks around the hole (the whole mesh is checked once at the end).
+    auto check_near = [](const Mesh& x, const tri_indices& a, const tri_indices& b) {
+        std::vector<tri_tuple> cells;
+        for (const auto& fv : {a, b})
+            for (index_t v : fv)
+                for (index_t g : x.vertex_faces(v)) cells.push_back(x.tuple_in_face(v, g));
+        const auto e = find_inconsistency_near(x, cells);
+        CHECK_MESSAGE(!e, *e);
+    };
     int holes = 0;
     for (index_t f = 0; f < m.face_slots() && holes < 40; f += 97) {
         const tri_tuple t = m.tuple_from_edge(f, 0);
@@ -358,14 +370,17 @@ TEST_CASE_TEMPLATE("raw edits keep neighbours right, also across boundaries made
         m.remove_face(f, log);
         m.remove_face(g->fid, log);
         commit();
-        check(m);
+        check_near(m, a, b);
+        CHECK(m.is_boundary_vertex(a[0]));
         m.add_face(b, log);
         commit();
-        check(m);
+        check_near(m, a, b);
         m.add_face(a, log);
         commit();
-        check(m);
+        check_near(m, a, b);
+        CHECK_FALSE(m.is_boundary_vertex(a[0]));
     }
     CHECK(holes >= 20);
+    check(m);
     CHECK(adjacency(m) == bunny);
 }

@@ -51,9 +51,10 @@ void check_serial(const char* file, double ratio) {
 
 } // namespace
 
-TEST_CASE_TEMPLATE("serial decimation hits the target exactly and keeps topology", Mesh, IDAS_TRI_MESHES) {
-    check_serial<Mesh, shortest_edge_collapse<true, Mesh>, shortest_edge_collapse_spec<>>("bunny.obj",
-                                                                                         0.1);
+TEST_CASE_TEMPLATE("serial decimation hits the target exactly and keeps topology", Mesh,
+                   IDAS_TRI_MESHES) {
+    check_serial<Mesh, shortest_edge_collapse<true, Mesh>, shortest_edge_collapse_spec<>>(
+        "bunny.obj", 0.1);
     check_serial<Mesh, shortest_edge_collapse<false, Mesh>, shortest_edge_collapse_spec<false>>(
         "armadillo.obj", 0.05);
     check_serial<Mesh, qslim<Mesh>, qslim_spec>("bunny.obj", 0.1);
@@ -71,7 +72,8 @@ TEST_CASE_TEMPLATE("serial decimation is deterministic", Mesh, IDAS_TRI_MESHES) 
     CHECK(c.to_arrays() == d.to_arrays());
 }
 
-TEST_CASE_TEMPLATE("QSlim stays closer to the input than midpoint collapse", Mesh, IDAS_TRI_MESHES) {
+TEST_CASE_TEMPLATE("QSlim stays closer to the input than midpoint collapse", Mesh,
+                   IDAS_TRI_MESHES) {
     // Mean squared distance from input vertices to the output surface: what QSlim's
     // quadrics approximate, so at the same face count it must beat midpoints clearly.
     auto input = idas::test::load<Mesh>("bunny.off");
@@ -94,7 +96,8 @@ TEST_CASE_TEMPLATE("QSlim stays closer to the input than midpoint collapse", Mes
     CHECK(eq < 0.8 * es);
 }
 
-TEST_CASE_TEMPLATE("parallel decimation under contention stays valid and near the target", Mesh, IDAS_TRI_MESHES) {
+TEST_CASE_TEMPLATE("parallel decimation under contention stays valid and near the target", Mesh,
+                   IDAS_TRI_MESHES) {
     // 8 workers on 2 cores, several partitionings: every result is a valid manifold with
     // the input's topology, within 1% of the target.
     for (unsigned parts : {1u, 2u, 4u}) {
@@ -128,7 +131,8 @@ TEST_CASE_TEMPLATE("parallel runs lose no operation", Mesh, IDAS_TRI_MESHES) {
         auto m = idas::test::load<Mesh>("blub.obj");
         shortest_edge_collapse_spec<> spec;
         spec.target_faces = 0;
-        const auto r = shortest_edge_collapse<true, Mesh>::run(m, spec, {.threads = threads, .max_retry = 2});
+        const auto r =
+            shortest_edge_collapse<true, Mesh>::run(m, spec, {.threads = threads, .max_retry = 2});
         CHECK(r.succeeded > 1000);
         CHECK(r.pushed == r.popped + r.purged);
         CHECK(r.popped == r.stale + r.skipped + r.attempted + r.lock_failures);
@@ -137,14 +141,15 @@ TEST_CASE_TEMPLATE("parallel runs lose no operation", Mesh, IDAS_TRI_MESHES) {
     }
 }
 
-TEST_CASE_TEMPLATE("METIS and Morton partitions both give valid parallel results", Mesh, IDAS_TRI_MESHES) {
+TEST_CASE_TEMPLATE("METIS and Morton partitions both give valid parallel results", Mesh,
+                   IDAS_TRI_MESHES) {
     auto a = idas::test::load<Mesh>("bunny.off"), b = a;
     qslim_spec s1, s2;
     s1.target_faces = s2.target_faces = std::int64_t(a.n_faces() / 4);
-    qslim<Mesh, lock::vertex_try_lock, queue::dary_heap<4>, partition::metis>::run(
-        a, s1, {.threads = 4});
-    qslim<Mesh, lock::vertex_try_lock, queue::binary_heap, partition::morton>::run(
-        b, s2, {.threads = 4});
+    qslim<Mesh, lock::vertex_try_lock, queue::dary_heap<4>, partition::metis>::run(a, s1,
+                                                                                   {.threads = 4});
+    qslim<Mesh, lock::vertex_try_lock, queue::binary_heap, partition::morton>::run(b, s2,
+                                                                                   {.threads = 4});
     CHECK_FALSE(find_inconsistency(a).has_value());
     CHECK_FALSE(find_inconsistency(b).has_value());
     for (const auto* m : {&a, &b})

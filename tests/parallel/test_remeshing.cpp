@@ -8,6 +8,9 @@
 #include <idas/algorithms/isotropic_remeshing.hpp>
 #include <idas/core/aabb_tree.hpp>
 #include <idas/mesh/surface_distance.hpp>
+#if IDAS_HAS_CGAL
+#include <idas/invariants/envelope.hpp>
+#endif
 
 using namespace idas;
 using namespace idas::algorithms;
@@ -116,3 +119,27 @@ TEST_CASE("remeshing stays close to the input surface") {
     const auto [V, F] = m.to_arrays();
     CHECK(max_sampled_distance(V, F, input, 4) < o.target_length);
 }
+
+#if IDAS_HAS_CGAL
+TEST_CASE("parallel remeshing with the envelope invariant stays within eps") {
+    // The exact envelope refuses any operation whose new triangles leave the eps-envelope
+    // of the input; an independent sampled distance check must agree, on 2 and 4 threads.
+    for (unsigned threads : {1u, 2u, 4u}) {
+        CAPTURE(threads);
+        auto m = idas::test::load("blub.obj");
+        const auto [V0, F0] = m.to_arrays();
+        const triangle_aabb_tree input(V0, F0);
+        const double eps = 1e-3 * input.diagonal();
+        const envelope env(V0, F0, eps);
+        remeshing_options o;
+        o.target_length = 0.02 * input.diagonal(); // coarser than the input: chords would leave
+        o.iterations = 3;
+        const auto r = isotropic_remeshing<tri_mesh<>, lock::vertex_try_lock, queue::dary_heap<4>,
+                                           partition::morton, envelope>::run(m, o, {.threads = threads}, env);
+        CHECK(r.collapses > 0);
+        REQUIRE_FALSE(find_inconsistency(m).has_value());
+        const auto [V, F] = m.to_arrays();
+        CHECK(max_sampled_distance(V, F, input, 6) <= eps);
+    }
+}
+#endif

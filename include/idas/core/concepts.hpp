@@ -13,7 +13,10 @@ namespace idas {
 
 /// A triangle connectivity backend: owns vertex/face slots and their incidence, and
 /// journals each change in a per-thread undo log so it can be rolled back exactly.
-/// Nothing above mesh/ depends on anything but this concept.
+/// Nothing above mesh/ depends on anything but this concept. `vertex_faces` may be any
+/// forward range (a stored list or a circulation); the undo log is anything with
+/// size(), reserve() and a truncating resize() (what a transaction commits with).
+// clang-format off
 template <class B>
 concept tri_connectivity =
     std::default_initializable<B> && std::copyable<B> &&
@@ -21,6 +24,8 @@ concept tri_connectivity =
              typename B::undo_log log, std::size_t mark, const std::vector<tri_indices>& faces) {
         typename B::undo_log;
         { log.size() } -> std::convertible_to<std::size_t>;
+        { log.reserve(mark) };
+        { log.resize(mark) };
         { cb.vertex_slots() } -> std::convertible_to<index_t>;
         { cb.face_slots() } -> std::convertible_to<index_t>;
         { cb.vertex_alive(i) } -> std::convertible_to<bool>;
@@ -41,6 +46,7 @@ concept tri_connectivity =
         { b.reserve(i, i) };
         { b.set_slot_recycling(true) };
     };
+// clang-format on
 
 } // namespace idas
 
@@ -48,6 +54,7 @@ namespace idas {
 
 /// A tetrahedral connectivity backend: vertex/tet slots, incidence, and the same
 /// journaled, exactly reversible mutations as tri_connectivity.
+// clang-format off
 template <class B>
 concept tet_connectivity =
     std::default_initializable<B> && std::copyable<B> &&
@@ -55,6 +62,8 @@ concept tet_connectivity =
              typename B::undo_log log, std::size_t mark, const std::vector<tet_indices>& tets) {
         typename B::undo_log;
         { log.size() } -> std::convertible_to<std::size_t>;
+        { log.reserve(mark) };
+        { log.resize(mark) };
         { cb.vertex_slots() } -> std::convertible_to<index_t>;
         { cb.tet_slots() } -> std::convertible_to<index_t>;
         { cb.vertex_alive(i) } -> std::convertible_to<bool>;
@@ -73,7 +82,9 @@ concept tet_connectivity =
         { b.touch_tet(i, log) };
         { b.rollback(log, mark) };
         { b.reserve(i, i) };
+        { b.set_slot_recycling(true) };
     };
+    // clang-format on
 
 } // namespace idas
 

@@ -32,7 +32,9 @@ std::optional<std::string> check_face(const tri_mesh<Backend>& m, index_t f) {
         if (!listed)
             return at("face", f) + "missing from incidence list of vertex " + std::to_string(fv[i]);
     }
-    if constexpr (requires { { c.check_face(f) } -> std::same_as<std::optional<std::string>>; })
+    if constexpr (requires {
+                      { c.check_face(f) } -> std::same_as<std::optional<std::string>>;
+                  })
         if (auto e = c.check_face(f)) return at("face", f) + *e; // the backend's own invariants
     for (std::uint8_t le = 0; le < 3; ++le) {
         const auto t = m.tuple_from_edge(f, le);
@@ -79,7 +81,9 @@ std::optional<std::string> check_vertex(const tri_mesh<Backend>& m, index_t v) {
         if (fv[0] != v && fv[1] != v && fv[2] != v)
             return at("vertex", v) + "lists a face without it";
     }
-    if constexpr (requires { { c.check_vertex(v) } -> std::same_as<std::optional<std::string>>; })
+    if constexpr (requires {
+                      { c.check_vertex(v) } -> std::same_as<std::optional<std::string>>;
+                  })
         if (auto e = c.check_vertex(v)) return at("vertex", v) + *e; // the backend's own invariants
     if (n == 0) return std::nullopt;
     // Walk the fan from one face; it must reach every face of the star.

@@ -1,0 +1,436 @@
+// The envelope invariant: every triangle an operation creates must lie inside the
+// eps-envelope of the input surface, checked exactly (Wang, Ferguson, Schneider, Zorin,
+// Panozzo 2020, "Exact and efficient polyhedral envelope containment check", as
+// implemented by CGAL::Polyhedral_envelope).
+//
+// The envelope is the union of one prism per (non-degenerate) input triangle: the
+// triangle thickened by eps/sqrt(3) along its normal and bevelled at its edges and
+// corners. It lies inside the true eps-offset, so an accepted triangle is within eps of
+// the input everywhere; the containment test itself uses exact predicates (and exact
+// constructions where needed), so rounding never lets a triangle through.
+//
+// CGAL's check costs 50-300 us per triangle on remeshing-sized triangles, so a filter
+// decides most triangles first, without changing any answer (both of its verdicts are
+// proven, with margins for rounding):
+// * inside: a prism contains every point within eps/sqrt(3) of its triangle T (each of
+//   its bounding planes is at least that far from T). The distance to T is convex, so a
+//   query triangle whose three corners are within r < eps/sqrt(3) of one input triangle
+//   lies inside that prism. The query is split 4-to-1 (up to 5 levels) until every piece
+//   passes this test against some nearby input triangle (closest-point queries on an
+//   idas::triangle_aabb_tree);
+// * outside: every prism point is within eps of its triangle and within eps/sqrt(3) of
+//   its plane, so a corner or piece centroid farther than eps from the input, or outside
+//   the slabs of all the input triangles within eps, is outside the envelope.
+// Whatever the filter cannot decide goes to CGAL. `contains_exact` skips the filter.
+// Needle input triangles (height below 1e-6 of their longest edge) have rounded normals
+// too inaccurate for these bounds: they never prove containment, and no outside verdict
+// is given near one.
+//
+// Needs CGAL (5.4 or later; header-only, with GMP and MPFR): link CGAL::CGAL. Not part of
+// the idas/idas.hpp umbrella.
+//
+// Thread safety: an envelope is immutable once built, and CGAL's const queries on it are
+// safe to run concurrently (see the note at the end of this file), so one envelope object,
+// and its copies (which share the CGAL structure), may be used by any number of threads.
+//
+// Usage: list it among a spec's invariants,
+//     auto invariants() const { return idas::invariant_set{idas::no_normal_flip{}, env}; }
+// where env = idas::envelope_from(input_mesh) (eps relative to the bounding-box diagonal)
+// or idas::envelope(V, F, eps) (absolute). A default-constructed envelope is disabled and
+// accepts everything, so a spec can always list it and switch it on at run time.
+#pragma once
+
+#include <idas/core/aabb_tree.hpp>
+#include <idas/core/types.hpp>
+#include <idas/mesh/tri_mesh.hpp>
+#include <idas/ops/operation.hpp>
+
+// GCC 12 reports false -Wmaybe-uninitialized positives inside CGAL's envelope code once
+// inlined (at -O1 with sanitizers); they are CGAL's lines, so silence them there only.
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Polyhedral_envelope.h>
+#include <CGAL/version.h>
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic pop
+#endif
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+static_assert(CGAL_VERSION_NR >= 1050400000,
+              "idas::envelope needs CGAL 5.4 or later (thread-safe Epeck, Polyhedral_envelope)");
+
+#if !defined(CGAL_HAS_THREADS) && !defined(IDAS_ENVELOPE_SINGLE_THREADED)
+#error                                                                                             \
+    "CGAL is configured without thread support (CGAL_HAS_NO_THREADS), so its exact objects are not \
+safe to share between threads and idas::envelope could not be used by parallel executors. \
+Define IDAS_ENVELOPE_SINGLE_THREADED to use it from one thread only."
+#endif
+
+namespace idas {
+
+class envelope {
+public:
+    using kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
+    using cgal_envelope = CGAL::Polyhedral_envelope<kernel>;
+
+    static constexpr double default_relative_eps = 1e-3;
+
+    /// Per-operation state of the invariant: none.
+    struct state {};
+
+    /// A disabled envelope: contains everything, costs nothing.
+    envelope() = default;
+
+    /// The envelope at absolute distance eps (> 0) of surface (V, F). Degenerate (zero-area)
+    /// triangles are skipped, as CGAL does for meshes: they are covered by their neighbours'
+    /// prisms. Throws input_error for a bad eps, out-of-range indices or non-finite
+    /// coordinates.
+    envelope(const std::vector<vec3>& V, const std::vector<tri_indices>& F, double eps) {
+        if (!(eps > 0) || !std::isfinite(eps))
+            throw input_error("envelope: eps must be positive and finite, got " +
+                              std::to_string(eps));
+        std::vector<kernel::Point_3> points;
+        points.reserve(V.size());
+        for (std::size_t i = 0; i < V.size(); ++i) {
+            if (!is_finite(V[i]))
+                throw input_error("envelope: vertex " + std::to_string(i) +
+                                  " has a non-finite coordinate");
+            points.emplace_back(V[i].x, V[i].y, V[i].z);
+        }
+        std::vector<std::array<int, 3>> triangles;
+        triangles.reserve(F.size());
+        std::size_t skipped = 0;
+        for (std::size_t f = 0; f < F.size(); ++f) {
+            for (index_t v : F[f])
+                if (v >= V.size() || v > static_cast<index_t>(std::numeric_limits<int>::max()))
+                    throw input_error("envelope: face " + std::to_string(f) + " has vertex index " +
+                                      std::to_string(v) + " beyond the " +
+                                      std::to_string(V.size()) + " vertices");
+            // Exact test: CGAL's prism of a collinear triangle would have no normal.
+            if (CGAL::collinear(points[F[f][0]], points[F[f][1]], points[F[f][2]])) {
+                ++skipped;
+                continue;
+            }
+            triangles.push_back({int(F[f][0]), int(F[f][1]), int(F[f][2])});
+        }
+        auto d = std::make_shared<data>(points, triangles, eps);
+        d->faces = triangles.size(), d->skipped = skipped;
+        build_filter(*d, V, triangles);
+        data_ = std::move(d);
+    }
+
+    /// The envelope at distance relative_eps times the diagonal of the bounding box of
+    /// the surface's (referenced) vertices.
+    static envelope relative(const std::vector<vec3>& V, const std::vector<tri_indices>& F,
+                             double relative_eps = default_relative_eps) {
+        return envelope(V, F, relative_eps * bounding_diagonal(V, F));
+    }
+
+    /// False for a default-constructed (disabled) envelope.
+    bool enabled() const noexcept { return data_ != nullptr; }
+    /// The absolute distance (0 when disabled).
+    double eps() const noexcept { return data_ ? data_->eps : 0.0; }
+    /// Input triangles with a prism, and degenerate ones that were skipped.
+    std::size_t n_prisms() const noexcept { return data_ ? data_->faces : 0; }
+    std::size_t n_skipped_degenerate() const noexcept { return data_ ? data_->skipped : 0; }
+    /// The underlying CGAL object (null when disabled).
+    const cgal_envelope* cgal() const noexcept { return data_ ? &data_->env : nullptr; }
+
+    /// Exact: is triangle (a, b, c) inside the envelope? Collinear triangles are tested
+    /// as segments, coincident corners as points. True when disabled.
+    bool contains(const vec3& a, const vec3& b, const vec3& c) const {
+        if (!data_) return true;
+        const verdict v = fast_verdict(a, b, c);
+        if (v != verdict::unknown) return v == verdict::inside;
+        return data_->env(point(a), point(b), point(c));
+    }
+    /// The same answer from CGAL alone (no filter): for tests and measurements.
+    bool contains_exact(const vec3& a, const vec3& b, const vec3& c) const {
+        if (!data_) return true;
+        return data_->env(point(a), point(b), point(c));
+    }
+    /// Exact: is point p inside the envelope? True when disabled.
+    bool contains(const vec3& p) const {
+        if (!data_) return true;
+        return data_->env(point(p));
+    }
+
+    enum class verdict : std::uint8_t { outside, inside, unknown };
+
+    /// Input triangles the filter found near recent queries. Checking adjacent triangles
+    /// (the new faces of one operation) with one cache saves most closest-point queries.
+    /// Belongs to one thread.
+    class filter_cache {
+        friend class envelope;
+        struct candidate {
+            index_t face;
+            std::array<vec3, 3> t;
+        };
+        std::array<candidate, 16> cand;
+        int n = 0;
+    };
+
+    /// The filter alone: inside or outside when it can prove it, else unknown (see the
+    /// file comment). Never contradicts contains_exact.
+    verdict fast_verdict(const vec3& a, const vec3& b, const vec3& c) const {
+        filter_cache cache;
+        return fast_verdict(a, b, c, cache);
+    }
+
+    verdict fast_verdict(const vec3& a, const vec3& b, const vec3& c, filter_cache& cache) const {
+        if (!data_) return verdict::inside;
+        const data& d = *data_;
+        if (d.tree.empty()) return verdict::unknown;
+        auto& cand = cache.cand;
+        int& n_cand = cache.n;
+        // Adds face f to the candidates; true if it is new there (and may prove containment).
+        auto remember = [&](index_t f) {
+            if (!d.usable[f]) return false;
+            for (int i = 0; i < n_cand; ++i)
+                if (cand[i].face == f) return false;
+            if (n_cand == int(cand.size())) { // forget the oldest
+                std::move(cand.begin() + 1, cand.end(), cand.begin());
+                --n_cand;
+            }
+            cand[n_cand++] = {f, d.tree.triangle(f)};
+            return true;
+        };
+        auto dist2 = [](const std::array<vec3, 3>& T, const vec3& p) {
+            return squared_norm(p - closest_point_on_triangle(p, T[0], T[1], T[2]));
+        };
+        auto within = [&](const std::array<vec3, 3>& T, const vec3& p) {
+            return dist2(T, p) <= d.inside_r2;
+        };
+        // Looks for the input triangle nearest to p within eps (bounded queries prune from the
+        // start): none means p, and so the query triangle, is outside. Sets `added` if that
+        // triangle became a new candidate.
+        auto near_input = [&](const vec3& p, bool& added) {
+            const auto r = d.tree.closest_point(p, d.outside_r2);
+            if (!r) return false;
+            added = remember(r.face);
+            return true;
+        };
+        // Outside proofs need every prism that CGAL may consult to lie within eps of its
+        // triangle; needle triangles' prisms may not (see build_filter).
+        const verdict outside = d.needle_boxes.empty() || !near_needle(d, a, b, c)
+                                    ? verdict::outside
+                                    : verdict::unknown;
+        for (const vec3* p : {&a, &b, &c}) {
+            bool near = false;
+            for (int i = n_cand - 1; i >= 0 && !near; --i)
+                near = dist2(cand[i].t, *p) <= d.outside_r2;
+            bool added = false;
+            if (!near && !near_input(*p, added)) return outside;
+        }
+        struct piece {
+            vec3 a, b, c;
+            int level;
+        };
+        piece stack[3 * max_level + 2];
+        int top = 0;
+        bool undecided = false;
+        stack[top++] = {a, b, c, 0};
+        auto holds = [&](const piece& p, const std::array<vec3, 3>& T) {
+            return within(T, p.a) && within(T, p.b) && within(T, p.c);
+        };
+        while (top > 0) {
+            const piece p = stack[--top];
+            bool ok = false;
+            for (int i = n_cand - 1; i >= 0 && !ok; --i) ok = holds(p, cand[i].t);
+            if (!ok) {
+                bool added = false;
+                if (!near_input((p.a + p.b + p.c) / 3.0, added)) return outside;
+                if (added) ok = holds(p, cand[n_cand - 1].t); // the others failed already
+            }
+            if (ok) continue;
+            if (p.level == max_level) {
+                // Unresolved piece: it may still prove the triangle outside if its centroid
+                // is outside every prism; otherwise CGAL decides the whole triangle, unless
+                // another piece proves it outside first.
+                if (outside == verdict::outside && outside_all_prisms(d, (p.a + p.b + p.c) / 3.0))
+                    return outside;
+                undecided = true;
+                continue;
+            }
+            const vec3 ab = (p.a + p.b) * 0.5, bc = (p.b + p.c) * 0.5, ca = (p.c + p.a) * 0.5;
+            stack[top++] = {ab, bc, ca, p.level + 1};
+            stack[top++] = {ca, bc, p.c, p.level + 1};
+            stack[top++] = {ab, p.b, bc, p.level + 1};
+            stack[top++] = {p.a, ab, ca, p.level + 1};
+        }
+        return undecided ? verdict::unknown : verdict::inside;
+    }
+
+    /// contains(a, b, c) reusing a filter cache (see filter_cache).
+    bool contains(const vec3& a, const vec3& b, const vec3& c, filter_cache& cache) const {
+        if (!data_) return true;
+        const verdict v = fast_verdict(a, b, c, cache);
+        if (v != verdict::unknown) return v == verdict::inside;
+        return data_->env(point(a), point(b), point(c));
+    }
+
+    /// Invariant hook: every new or changed face of the operation lies inside.
+    template <class Op, class Mesh, class Result>
+    bool after(Op, const Mesh& m, const Result& r, state&) const {
+        if (!data_) return true;
+        filter_cache cache;
+        for (const auto& t : r.cells) {
+            const auto& fv = m.face_vertices(t.fid);
+            if (!contains(m.position(fv[0]), m.position(fv[1]), m.position(fv[2]), cache))
+                return false;
+        }
+        return true;
+    }
+
+    static double bounding_diagonal(const std::vector<vec3>& V, const std::vector<tri_indices>& F) {
+        constexpr double inf = std::numeric_limits<double>::infinity();
+        vec3 lo{inf, inf, inf}, hi{-inf, -inf, -inf};
+        for (const auto& f : F)
+            for (index_t v : f) {
+                if (v >= V.size()) continue; // reported by the constructor
+                for (int k = 0; k < 3; ++k)
+                    lo[k] = std::min(lo[k], V[v][k]), hi[k] = std::max(hi[k], V[v][k]);
+            }
+        return F.empty() ? 0.0 : norm(hi - lo);
+    }
+
+private:
+    static constexpr int max_level = 5;
+    static constexpr std::size_t max_needles = 256;
+
+    struct data {
+        data(const std::vector<kernel::Point_3>& points,
+             const std::vector<std::array<int, 3>>& triangles, double e)
+            : env(points, triangles, e)
+            , eps(e) {}
+        cgal_envelope env;
+        double eps;
+        std::size_t faces = 0, skipped = 0;
+        // The filter: the prismed triangles (same order as given to CGAL), which of them
+        // may prove containment, and the squared radii of its two tests.
+        triangle_aabb_tree tree;
+        std::vector<char> usable;
+        std::vector<vec3> normals; // unit normals of the prismed triangles
+        double inside_r2 = 0, outside_r2 = 0, slab = 0;
+        // Boxes (min, max) around the needle triangles' prisms, as far as CGAL consults them.
+        std::vector<std::pair<vec3, vec3>> needle_boxes;
+    };
+
+    // True if the bounding box of (a, b, c) meets a needle triangle's box.
+    static bool near_needle(const data& d, const vec3& a, const vec3& b, const vec3& c) {
+        const vec3 lo{std::min({a.x, b.x, c.x}), std::min({a.y, b.y, c.y}),
+                      std::min({a.z, b.z, c.z})};
+        const vec3 hi{std::max({a.x, b.x, c.x}), std::max({a.y, b.y, c.y}),
+                      std::max({a.z, b.z, c.z})};
+        for (const auto& [blo, bhi] : d.needle_boxes)
+            if (!(hi.x < blo.x || hi.y < blo.y || hi.z < blo.z || lo.x > bhi.x || lo.y > bhi.y ||
+                  lo.z > bhi.z))
+                return true;
+        return false;
+    }
+
+    // True if p is provably outside every prism: each prismed triangle within eps of p has
+    // p outside its slab (a prism lies within eps/sqrt(3) of its triangle's plane).
+    static bool outside_all_prisms(const data& d, const vec3& p) {
+        return d.tree.for_each_face_within(p, d.outside_r2, [&](index_t f, double) {
+            if (!d.usable[f]) return false; // its normal is not trusted
+            const vec3 a = d.tree.triangle(f)[0];
+            return std::abs(dot(p - a, d.normals[f])) > d.slab;
+        });
+    }
+
+    static void build_filter(data& d, const std::vector<vec3>& V,
+                             const std::vector<std::array<int, 3>>& T) {
+        std::vector<tri_indices> F(T.size());
+        d.usable.resize(T.size());
+        d.normals.resize(T.size());
+        double coord = 0; // largest coordinate magnitude: scale of CGAL's rounding errors
+        for (std::size_t i = 0; i < T.size(); ++i) {
+            const vec3 &a = V[T[i][0]], &b = V[T[i][1]], &c = V[T[i][2]];
+            F[i] = {index_t(T[i][0]), index_t(T[i][1]), index_t(T[i][2])};
+            for (const vec3* p : {&a, &b, &c})
+                coord = std::max({coord, std::abs(p->x), std::abs(p->y), std::abs(p->z)});
+            // CGAL offsets a triangle along its rounded unit normal: trust it only when the
+            // triangle is not a needle (its normal is then accurate to ~1e-10).
+            const double longest =
+                std::max({squared_norm(b - a), squared_norm(c - b), squared_norm(a - c)});
+            const vec3 n = cross(b - a, c - a);
+            d.usable[i] = norm(n) >= 1e-6 * longest;
+            d.normals[i] = n / norm(n);
+        }
+        d.tree = triangle_aabb_tree(V, F);
+        // A needle's rounded normal may be far off, so its prism (all CGAL consults of it is
+        // within its bounding box grown by eps(1 + 1e-6)) may reach beyond eps of it:
+        // no outside proof near one. Past a few hundred needles, no outside proofs at all.
+        const double grow = d.eps * (1 + 1e-5) + 1e-8 * coord;
+        std::size_t needles = 0;
+        for (std::size_t i = 0; i < T.size(); ++i) {
+            if (d.usable[i]) continue;
+            if (++needles > max_needles) continue;
+            const vec3 &a = V[T[i][0]], &b = V[T[i][1]], &c = V[T[i][2]];
+            const vec3 lo{std::min({a.x, b.x, c.x}), std::min({a.y, b.y, c.y}),
+                          std::min({a.z, b.z, c.z})};
+            const vec3 hi{std::max({a.x, b.x, c.x}), std::max({a.y, b.y, c.y}),
+                          std::max({a.z, b.z, c.z})};
+            d.needle_boxes.push_back({lo - vec3{grow, grow, grow}, hi + vec3{grow, grow, grow}});
+        }
+        if (needles > max_needles) {
+            // One box around everything disables outside proofs.
+            const double big = std::numeric_limits<double>::max();
+            d.needle_boxes.assign(1, {vec3{-big, -big, -big}, vec3{big, big, big}});
+        }
+        // Margins: 0.1% of the prism half-thickness, plus rounding of the prism planes'
+        // points (CGAL computes them in doubles) magnified by up to 1e6 for thin triangles.
+        const double rounding = 1e-8 * coord;
+        const double half = d.eps / std::sqrt(3.0);
+        const double r_in = half * 0.999 - rounding;
+        d.inside_r2 = r_in > 0 ? r_in * r_in : -1.0; // -1: never proves containment
+        const double r_out = d.eps * (1 + 1e-6) + rounding;
+        d.outside_r2 = r_out * r_out;
+        d.slab = half * (1 + 1e-6) + rounding;
+    }
+
+    static kernel::Point_3 point(const vec3& p) { return {p.x, p.y, p.z}; }
+
+    std::shared_ptr<const data> data_;
+};
+
+static_assert(invariant<envelope>);
+
+/// The envelope of a mesh's current surface at relative_eps times its bounding-box
+/// diagonal (build it from the input, before editing).
+template <class Backend>
+envelope envelope_from(const tri_mesh<Backend>& m,
+                       double relative_eps = envelope::default_relative_eps) {
+    const auto [V, F] = m.to_arrays();
+    return envelope::relative(V, F, relative_eps);
+}
+
+// Why concurrent queries are safe (CGAL 5.5, checked in its source):
+// * Polyhedral_envelope's queries are const and it has no mutable members; each query
+//   builds its own local vectors. Its AABB tree is built eagerly by the constructor (and
+//   CGAL's AABB_tree guards any lazy rebuild of a const tree with a mutex when
+//   CGAL_HAS_THREADS is defined).
+// * The prisms' planes are Epeck (lazy exact) objects shared by all queries. Since CGAL
+//   5.4 (PR #5402, "Epeck thread safety") a lazy object computes its exact value under
+//   std::call_once and publishes it atomically, and reference counts are atomic, provided
+//   CGAL_HAS_THREADS (defined whenever Boost sees threads; checked above) and the exact
+//   rational type is mpq_class, Boost.Multiprecision's mpq_rational (what Debian's CGAL
+//   5.5 picks) or Quotient<MP_Float>.
+// * Interval filters change the FPU rounding mode, which is per thread.
+// * idas' filter only reads the (const) triangle_aabb_tree and works on the stack.
+// tests/test_envelope.cpp checks that several threads on one object agree with a serial pass.
+
+} // namespace idas
