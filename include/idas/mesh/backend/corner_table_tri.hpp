@@ -81,6 +81,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cassert>
 #include <cstddef>
 #include <iterator>
@@ -141,13 +142,19 @@ public:
         friend class corner_table_tri;
         struct pending_half {
             index_t corner;
+            index_t from, to;      // its vertices when listed (checked again on use)
             std::uint32_t made_at; // log size when listed
         };
         void forget_pending_after(std::size_t n) {
             if (n == 0) return pending_.clear();
             std::erase_if(pending_, [n](const pending_half& p) { return p.made_at > n; });
         }
-        void push(const undo_entry& e) { entries_.push_back(e); }
+        /// Builds the entry in place: a temporary copied in would be read back wider than
+        /// it was written, which stalls store forwarding on every push.
+        template <class... Fields>
+        void push(Fields... fields) {
+            entries_.emplace_back(fields...);
+        }
         std::vector<undo_entry> entries_;
         std::vector<pending_half> pending_;
     };
@@ -291,6 +298,13 @@ public:
     bool face_alive(index_t f) const noexcept { return faces_[f].v[0] != invalid_index; }
     const tri_indices& face_vertices(index_t f) const noexcept { return faces_[f].v; }
     version_t face_version(index_t f) const noexcept { return faces_[f].version; }
+    /// As indexed_tri: a version read that may race with the face's owner bumping it
+    /// (parallel workers purge stale queue entries without holding the face's locks), so
+    /// versions are written through relaxed atomics (free on x86).
+    version_t face_version_relaxed(index_t f) const noexcept {
+        return std::atomic_ref<version_t>(const_cast<version_t&>(faces_[f].version))
+            .load(std::memory_order_relaxed);
+    }
     face_range vertex_faces(index_t v) const noexcept { return {faces_.data(), anchor_[v]}; }
 
     /// The face across local edge `le` of `f`, or invalid_index on the boundary.
@@ -403,28 +417,27 @@ public:
             const index_t v = pool.back();
             pool.pop_back();
             valive_[v] = 1;
-            log.push({undo_entry::what::vertex_from_pool, v});
+            log.push(undo_entry::what::vertex_from_pool, v);
             return v;
         }
         if (recycle_ && !free_vertices_.empty()) {
             const index_t v = free_vertices_.back();
             free_vertices_.pop_back();
             valive_[v] = 1;
-            log.push({undo_entry::what::vertex_reused, v});
+            log.push(undo_entry::what::vertex_reused, v);
             return v;
         }
         anchor_.push_back(invalid_index);
         valive_.push_back(1);
         const index_t v = vertex_slots() - 1;
-        log.push({undo_entry::what::vertex_added, v});
+        log.push(undo_entry::what::vertex_added, v);
         return v;
     }
     void remove_vertex(index_t v, undo_log& log) {
         assert(anchor_[v] == invalid_index);
         valive_[v] = 0;
         if (recycle_) free_vertices_.push_back(v);
-        log.push(
-            {recycle_ ? undo_entry::what::vertex_removed : undo_entry::what::vertex_dropped, v});
+        log.push(recycle_ ? undo_entry::what::vertex_removed : undo_entry::what::vertex_dropped, v);
     }
 
     index_t add_face(const tri_indices& f, undo_log& log) {
@@ -435,21 +448,21 @@ public:
                 assert(!pool.empty());
                 id = pool.back();
                 pool.pop_back();
-                log.push({undo_entry::what::face_from_pool, id});
+                log.push(undo_entry::what::face_from_pool, id);
             } else {
                 id = free_faces_.back();
                 free_faces_.pop_back();
-                log.push({undo_entry::what::free_face_popped, id});
+                log.push(undo_entry::what::free_face_popped, id);
             }
             save_face(id, log);
             face_record& r = faces_[id];
             r.v = f;
             r.opp = {invalid_index, invalid_index, invalid_index};
-            ++r.version;
+            bump_version(r);
         } else {
             faces_.push_back({f, 0, {invalid_index, invalid_index, invalid_index}, 0});
             id = face_slots() - 1;
-            log.push({undo_entry::what::face_added, id});
+            log.push(undo_entry::what::face_added, id);
         }
         for (index_t j = 0; j < 3; ++j)
             if (anchor_[f[j]] == invalid_index) set_anchor(f[j], corner(id, j), log);
@@ -462,12 +475,12 @@ public:
         const face_record old = faces_[f];
         faces_[f].v = {invalid_index, invalid_index, invalid_index};
         faces_[f].opp = {invalid_index, invalid_index, invalid_index};
-        ++faces_[f].version;
+        bump_version(faces_[f]);
         for (index_t i = 0; i < 3; ++i)
             if (const index_t t = old.opp[i]; t != invalid_index) detach_twin(t, log);
         if (recycle_) {
             free_faces_.push_back(f);
-            log.push({undo_entry::what::free_face_pushed, f});
+            log.push(undo_entry::what::free_face_pushed, f);
         }
         for (index_t i = 0; i < 3; ++i)
             if (const index_t a = anchor_[old.v[i]]; a != invalid_index && face_of(a) == f)
@@ -482,7 +495,7 @@ public:
         face_record& r = faces_[f];
         r.v = nv;
         r.opp = {invalid_index, invalid_index, invalid_index};
-        ++r.version;
+        bump_version(r);
         bool kept[3] = {false, false, false};
         index_t lost[3] = {invalid_index, invalid_index, invalid_index};
         for (index_t i = 0; i < 3; ++i) {
@@ -522,7 +535,7 @@ public:
     /// Marks a face changed (its geometry moved) so tuples made before go stale.
     void touch_face(index_t f, undo_log& log) {
         save_face(f, log);
-        ++faces_[f].version;
+        bump_version(faces_[f]);
     }
 
     void rollback(undo_log& log, std::size_t mark) {
@@ -533,7 +546,8 @@ public:
             entries.pop_back();
             switch (e.kind) {
             case w::face_saved:
-                faces_[e.a] = {e.verts, e.version, e.opp, 0};
+                faces_[e.a].v = e.verts, faces_[e.a].opp = e.opp;
+                set_version(faces_[e.a], e.version);
                 break;
             case w::opp_set:
                 link_ref(e.a) = e.b;
@@ -590,6 +604,10 @@ private:
                 {invalid_index, invalid_index, invalid_index},
                 0};
     }
+    static void set_version(face_record& r, version_t v) noexcept {
+        std::atomic_ref<version_t>(r.version).store(v, std::memory_order_relaxed);
+    }
+    static void bump_version(face_record& r) noexcept { set_version(r, r.version + 1); }
     index_t vertex_at(index_t c) const noexcept { return faces_[face_of(c)].v[local(c)]; }
     index_t link(index_t c) const noexcept { return faces_[face_of(c)].opp[local(c)]; }
     index_t& link_ref(index_t c) noexcept { return faces_[face_of(c)].opp[local(c)]; }
@@ -607,6 +625,10 @@ private:
         return face_of(c) < faces_.size() && faces_[face_of(c)].v[0] != invalid_index &&
                link(c) == invalid_index;
     }
+    /// Is c a live corner whose unlinked half-edge enters v?
+    bool enters(index_t c, index_t v) const noexcept {
+        return unlinked(c) && vertex_at(prev(c)) == v;
+    }
     /// Does the half-edge opposite c run from x to y?
     bool runs(index_t c, index_t x, index_t y) const noexcept {
         return vertex_at(next(c)) == x && vertex_at(prev(c)) == y;
@@ -614,21 +636,22 @@ private:
 
     void save_face(index_t f, undo_log& log) {
         const face_record& r = faces_[f];
-        log.push({undo_entry::what::face_saved, f, 0, r.version, r.v, r.opp});
+        log.push(undo_entry::what::face_saved, f, 0, r.version, r.v, r.opp);
     }
     void set_link(index_t c, index_t value, undo_log& log) {
-        log.push({undo_entry::what::opp_set, c, link(c)});
+        log.push(undo_entry::what::opp_set, c, link(c));
         link_ref(c) = value;
     }
     void set_anchor(index_t v, index_t c, undo_log& log) {
-        log.push({undo_entry::what::anchor_set, v, anchor_[v]});
+        log.push(undo_entry::what::anchor_set, v, anchor_[v]);
         anchor_[v] = c;
     }
     /// The half-edge opposite c has no twin: list it, and if the vertex it enters has
     /// its anchor at a linked corner, anchor that vertex here (its fan may start here).
     void list_pending(index_t c, undo_log& log) {
-        log.pending_.push_back({c, static_cast<std::uint32_t>(log.entries_.size())});
         const index_t h = prev(c), w = vertex_at(h), a = anchor_[w];
+        log.pending_.push_back(
+            {c, vertex_at(next(c)), w, static_cast<std::uint32_t>(log.entries_.size())});
         if (a != h && (a == invalid_index || link(next(a)) != invalid_index)) set_anchor(w, h, log);
     }
     /// Links the half-edges opposite c and d (c's own link is written directly: its face
@@ -644,7 +667,7 @@ private:
             const index_t w = vertex_at(h);
             if (anchor_[w] != h) continue;
             for (const auto& p : log.pending_)
-                if (unlinked(p.corner) && vertex_at(prev(p.corner)) == w) {
+                if (p.to == w && enters(p.corner, w)) {
                     set_anchor(w, prev(p.corner), log);
                     break;
                 }
@@ -677,23 +700,21 @@ private:
         link_pair(c, d, log, true);
     }
 
-    /// A pending half-edge y->x, taken off the list; entries that have been linked or
-    /// died since they were listed are dropped on the way.
+    /// A pending half-edge y->x, taken off the list. Entries are compared by the
+    /// vertices they had when listed, then checked: one that has been linked, died or
+    /// been rewritten since is dropped.
     index_t find_pending(index_t x, index_t y, undo_log& log) const {
         auto& p = log.pending_;
-        index_t found = invalid_index;
-        std::size_t keep = 0;
-        for (std::size_t k = 0; k < p.size(); ++k) {
-            const index_t d = p[k].corner;
-            if (!unlinked(d)) continue;
-            if (found == invalid_index && runs(d, y, x)) {
-                found = d;
+        for (std::size_t k = 0; k < p.size();) {
+            if (p[k].from != y || p[k].to != x) {
+                ++k;
                 continue;
             }
-            p[keep++] = p[k];
+            const index_t d = p[k].corner;
+            p.erase(p.begin() + static_cast<std::ptrdiff_t>(k)); // keeps the order
+            if (unlinked(d) && runs(d, y, x)) return d;
         }
-        p.resize(keep);
-        return found;
+        return invalid_index;
     }
 
     /// v's anchor was in the face whose record before the change is `old` (v at corner
@@ -702,8 +723,7 @@ private:
     /// finds a face of v whenever v still has one.
     void relocate_anchor(index_t v, const face_record& old, index_t i, undo_log& log) {
         for (const auto& p : log.pending_)
-            if (unlinked(p.corner) && vertex_at(prev(p.corner)) == v)
-                return set_anchor(v, prev(p.corner), log);
+            if (p.to == v && enters(p.corner, v)) return set_anchor(v, prev(p.corner), log);
         for (index_t k : {(i + 1) % 3, (i + 2) % 3}) // the two edges of the face at v
             if (const index_t t = old.opp[k]; t != invalid_index)
                 if (const index_t c = corner_of(face_of(t), v); c != invalid_index)
