@@ -1,12 +1,15 @@
 // idas: the command-line tool.
 //
 //   idas info IN [--json]                      statistics and topology of a mesh file
-//   idas convert IN OUT [--ascii]              any supported format to any other
+//   idas convert IN OUT [--ascii] [--msh-version V]
+//                                              any supported format to any other
 //   idas demo IN OUT [--json] [--seed S] [--ops N] [--ascii] [--backend B]
 //                                              random local operations guarded by invariants
 //   idas decimate IN OUT (--ratio R | --faces N) [--algorithm A] [--threads T] [--backend B]
 //                                              shortest edge collapse or QSlim
 // B is the connectivity backend, indexed (default) or corner-table.
+// Surface or tets is decided by the extension: .msh is a tet mesh (MSH 2.2/4.1, read and
+// write), .vtu a tet mesh (write only), the rest triangle surfaces (see cli_tet.hpp).
 //
 // Exit codes: 0 success; 2 bad input or usage; 1 any other failure. Errors go to stderr
 // and start with "idas: error: "; with --json, stdout holds exactly one JSON object.
@@ -15,6 +18,10 @@
 #include <idas/algorithms/shortest_edge_collapse.hpp>
 #include <idas/idas.hpp>
 #include <idas/io/io.hpp>
+#include <idas/io/msh.hpp>
+#include <idas/io/vtu.hpp>
+#include <idas/mesh/tet_mesh.hpp>
+#include <idas/mesh/tet_quality.hpp>
 #if IDAS_CLI_HAVE_CGAL
 #include <idas/invariants/envelope.hpp>
 #endif
@@ -681,6 +688,7 @@ int run_decimate(const std::string& in, const std::string& out, const std::strin
 }
 
 #include "cli_remesh.hpp"
+#include "cli_tet.hpp"
 
 // ---- main ----------------------------------------------------------------------------------
 
@@ -703,7 +711,12 @@ const CLI::Validator unsigned_integer(
     "");
 
 int run(int argc, char** argv) {
-    CLI::App app{"idas: inspect, convert and edit triangle meshes (OBJ, OFF, PLY, STL)", "idas"};
+    CLI::App app{"idas: inspect, convert and edit triangle meshes (OBJ, OFF, PLY, STL); inspect "
+                 "and convert tetrahedral meshes (MSH 2.2/4.1 in and out, VTU out)",
+                 "idas"};
+    app.footer("The file extension decides: .msh and .vtu files are tetrahedral meshes, all "
+               "others triangle surfaces. Converting tets to .obj/.off/.ply/.stl writes the "
+               "boundary surface.");
     app.require_subcommand(1);
 
     std::string in, out;
@@ -712,13 +725,15 @@ int run(int argc, char** argv) {
     std::size_t n_ops = 2000;
 
     auto* info = app.add_subcommand("info", "Print statistics and topology of a mesh");
-    info->add_option("IN", in, "input mesh file")->required();
+    info->add_option("IN", in, "input mesh file (.msh: tetrahedral mesh)")->required();
     info->add_flag("--json", as_json, "print one JSON object instead of text");
 
     auto* convert = app.add_subcommand("convert", "Convert a mesh between file formats");
     convert->add_option("IN", in, "input mesh file")->required();
     convert->add_option("OUT", out, "output mesh file; the extension picks the format")->required();
-    convert->add_flag("--ascii", ascii, "write PLY and STL as text instead of binary");
+    convert->add_flag("--ascii", ascii, "write PLY, STL, MSH and VTU as text instead of binary");
+    tet_convert_arguments tet_convert;
+    add_tet_convert_options(convert, tet_convert);
 
     auto* demo = app.add_subcommand(
         "demo", "Run random splits, collapses, swaps and smoothing guarded by invariants");
@@ -788,13 +803,15 @@ int run(int argc, char** argv) {
         return error(2, message + " (run 'idas --help' for usage)");
     }
 
-    if (info->parsed()) return run_info(in, as_json);
+    if (info->parsed()) return is_tet_path(in) ? run_tet_info(in, as_json) : run_info(in, as_json);
     if (remesh->parsed()) return run_remesh(ra);
     if (decimate->parsed())
         return with_backend(backend, [&]<class Mesh>(std::type_identity<Mesh>) {
             return run_decimate<Mesh>(in, out, algorithm, ratio, target_faces, threads, as_json,
                                       ascii, backend);
         });
+    if (convert->parsed() && is_tet_convert(in, out))
+        return run_tet_convert(in, out, ascii, tet_convert);
     if (convert->parsed()) return run_convert(in, out, ascii);
     return with_backend(backend, [&]<class Mesh>(std::type_identity<Mesh>) {
         return run_demo<Mesh>(in, out, as_json, seed, n_ops, ascii, backend);

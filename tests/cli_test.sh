@@ -286,6 +286,132 @@ expect_error "remesh non-manifold" 2 'non-manifold'
 run remesh "$DATA/bunny.off" "$TMP/x.obj" --edge-length 0
 expect_error "remesh zero length" 2 'edge-length'
 
+# ---- tetrahedral meshes (.msh in and out, .vtu out) -------------------------------------------
+
+TETS="$(cd "$(dirname "$0")" && pwd)/data" # Gmsh spheres: 205 nodes, 679 tets, 332 other elements
+for v in 22_ascii 22_binary 41_ascii 41_binary; do
+    run info "$TETS/gmsh_sphere_$v.msh" --json
+    expect_rc "info sphere $v" 0
+    expect_one_json "info sphere $v"
+    expect_field "info sphere $v" 'd["kind"]' tetrahedral
+    expect_field "info sphere $v" 'd["tets"]' 679
+    expect_field "info sphere $v" 'd["vertices"]' 205
+    expect_field "info sphere $v" 'd["skipped_elements"]' 332
+    expect_field "info sphere $v" 'd["inverted_tets"]' 0
+    expect_field "info sphere $v" 'd["euler_characteristic"]' 1
+    expect_field "info sphere $v" 'd["faces"] == d["boundary_faces"] + d["interior_faces"]' True
+    expect_field "info sphere $v" '4 * d["tets"] == d["boundary_faces"] + 2 * d["interior_faces"]' True
+    expect_field "info sphere $v" 'd["boundary"]["closed_2_manifold"]' True
+    expect_field "info sphere $v" 'd["boundary"]["genus"]' 0
+    expect_field "info sphere $v" 'd["editable"]' True
+    expect_field "info sphere $v" '0 < d["dihedral_angle_deg"]["min"] < 70.53 < d["dihedral_angle_deg"]["max"] < 180' True
+    expect_field "info sphere $v" '3 <= d["amips"]["min"] <= d["amips"]["mean"] <= d["amips"]["max"]' True
+    expect_field "info sphere $v" 'd["amips"]["finite_tets"]' 679
+done
+run info "$TETS/gmsh_sphere_41_ascii.msh"
+expect_rc "info sphere (text)" 0
+if grep -q 'closed 2-manifold' "$TMP/out" && grep -q 'AMIPS' "$TMP/out" && grep -q '679' "$TMP/out"; then ok; else fail "info sphere (text): summary missing"; fi
+
+# Round trips through every MSH variant keep the mesh (binary ones bit for bit).
+run info "$TETS/gmsh_sphere_41_binary.msh" --json
+ref_amips=$(field 'd["amips"]["mean"]')
+ref_dihedral=$(field 'd["dihedral_angle_deg"]["min"]')
+cp "$TETS/gmsh_sphere_41_binary.msh" "$TMP/tet_0.msh"
+i=0
+for opts in "--msh-version 2.2" "--msh-version 2.2 --ascii" "--ascii" ""; do
+    # shellcheck disable=SC2086
+    run convert "$TMP/tet_$i.msh" "$TMP/tet_$((i + 1)).msh" $opts
+    expect_rc "convert msh ($opts)" 0
+    i=$((i + 1))
+done
+run info "$TMP/tet_4.msh" --json
+expect_field "msh round trip" 'd["tets"]' 679
+expect_field "msh round trip" 'd["skipped_elements"]' 0
+expect_field "msh round trip" 'd["boundary"]["closed_2_manifold"]' True
+expect_field "msh round trip" 'd["amips"]["mean"]' "$ref_amips"
+expect_field "msh round trip" 'd["dihedral_angle_deg"]["min"]' "$ref_dihedral"
+run convert "$TMP/tet_4.msh" "$TMP/tet_5.msh"
+if cmp -s "$TMP/tet_4.msh" "$TMP/tet_5.msh"; then ok; else fail "msh round trip: binary 4.1 is not reproduced exactly"; fi
+if head -n 2 "$TMP/tet_2.msh" | grep -q '^2.2 0 8'; then ok; else fail "convert --msh-version 2.2 --ascii: header is not '2.2 0 8'"; fi
+
+for enc in "" "--ascii"; do
+    # shellcheck disable=SC2086
+    run convert "$TETS/gmsh_sphere_22_ascii.msh" "$TMP/tet$enc.vtu" $enc
+    expect_rc "convert msh->vtu $enc" 0
+    if grep -q 'NumberOfPoints="205" NumberOfCells="679"' "$TMP/tet$enc.vtu"; then ok; else fail "convert msh->vtu $enc: wrong counts"; fi
+done
+if grep -q 'format="ascii"' "$TMP/tet--ascii.vtu"; then ok; else fail "convert msh->vtu --ascii: not ascii"; fi
+
+# A tet mesh to a surface format writes its boundary, outward.
+run convert "$TETS/gmsh_sphere_22_binary.msh" "$TMP/tet_boundary.obj"
+expect_rc "convert msh->obj" 0
+run info "$TMP/tet_boundary.obj" --json
+expect_field "msh boundary" 'd["faces"]' 320
+expect_field "msh boundary" 'd["vertices"]' 162
+expect_field "msh boundary" 'd["closed"] and d["manifold"] and d["oriented"]' True
+expect_field "msh boundary" 'd["euler_characteristic"]' 2
+
+# Hand-made meshes: one tet, and one tet stored inverted with a second one beside it.
+one_tet='$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n5\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n5 1 1 1\n$EndNodes\n'
+printf "${one_tet}"'$Elements\n1\n1 4 0 1 2 3 4\n$EndElements\n' >"$TMP/one.msh"
+run info "$TMP/one.msh" --json
+expect_rc "info one tet" 0
+expect_field "info one tet" 'd["tets"], d["referenced_vertices"], d["boundary_faces"], d["edges"]' "(1, 4, 4, 6)"
+expect_field "info one tet" 'd["boundary"]["closed_2_manifold"]' True
+expect_field "info one tet" 'abs(d["dihedral_angle_deg"]["max"] - 90) < 1e-9' True
+expect_field "info one tet" 'abs(d["amips"]["min"] - 4.5 / 2 ** (1 / 3)) < 1e-9' True
+printf "${one_tet}"'$Elements\n2\n1 4 0 1 3 2 4\n2 4 0 2 3 4 5\n$EndElements\n' >"$TMP/inverted.msh"
+run info "$TMP/inverted.msh" --json
+expect_rc "info inverted" 0
+expect_field "info inverted" 'd["inverted_tets"]' 1
+expect_field "info inverted" 'd["editable"]' False
+expect_field "info inverted" '"inverted" in d["problem"]' True
+expect_field "info inverted" 'd["amips"]["finite_tets"]' 1
+run info "$TMP/inverted.msh"
+expect_rc "info inverted (text)" 0
+if grep -q 'inverted tets *1' "$TMP/out"; then ok; else fail "info inverted (text): count missing"; fi
+# Files are data: an inverted tet is still converted as stored.
+run convert "$TMP/inverted.msh" "$TMP/inverted_copy.msh"
+expect_rc "convert inverted" 0
+
+# Bad tet input: exit 2, the file named, no output left behind.
+head -c 20000 "$TETS/gmsh_sphere_41_binary.msh" >"$TMP/truncated.msh"
+head -c 9000 "$TETS/gmsh_sphere_22_ascii.msh" >"$TMP/truncated_ascii.msh"
+printf '$MeshFormat\n2.2 0 8\n$EndMeshFormat\n\001\002garbage\377\n' >"$TMP/garbage.msh"
+printf "${one_tet}"'$Elements\n1\n1 4 0 1 2 3 9\n$EndElements\n' >"$TMP/out_of_range.msh"
+printf '$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n999999999\n1 0 0 0\n$EndNodes\n' >"$TMP/lying.msh"
+printf "${one_tet}"'$Elements\n5\n1 4 0 1 2 3 4\n$EndElements\n' >"$TMP/lying_elements.msh"
+printf "${one_tet}"'$Elements\n1\n1 2 0 1 2 3\n$EndElements\n' >"$TMP/no_tets.msh"
+for bad in truncated truncated_ascii garbage out_of_range lying lying_elements no_tets; do
+    run info "$TMP/$bad.msh"
+    expect_error "info $bad.msh" 2 "$bad.msh"
+    run info "$TMP/$bad.msh" --json
+    expect_error "info $bad.msh --json" 2
+    for ext in msh vtu obj; do
+        run convert "$TMP/$bad.msh" "$TMP/never_$bad.$ext"
+        expect_error "convert $bad.msh -> $ext" 2 "$bad.msh"
+        if [ ! -e "$TMP/never_$bad.$ext" ]; then ok; else fail "convert $bad.msh -> $ext: output file exists"; fi
+    done
+done
+if ls "$TMP" | grep -q '\.tmp'; then fail "tet convert: temporary files left behind"; else ok; fi
+cp "$TMP/one.msh" "$TMP/keep.msh"
+run convert "$TMP/garbage.msh" "$TMP/keep.msh"
+expect_error "convert over existing msh" 2
+if cmp -s "$TMP/one.msh" "$TMP/keep.msh"; then ok; else fail "convert over existing msh: output changed"; fi
+
+run info "$TMP/tet.vtu"
+expect_error "info vtu" 2 'tet.vtu'
+run convert "$DATA/bunny.off" "$TMP/never_tets.msh"
+expect_error "convert surface -> msh" 2 'bunny.off'
+if [ ! -e "$TMP/never_tets.msh" ]; then ok; else fail "convert surface -> msh: output file exists"; fi
+run convert "$TMP/one.msh" "$TMP/never.xyz"
+expect_error "convert msh -> unknown extension" 2 'never.xyz'
+run convert "$TMP/one.msh" "$TMP/never.msh" --msh-version 3.0
+expect_error "convert --msh-version 3.0" 2
+run convert "$TMP/one.msh" "$TMP/never.vtu" --msh-version 2.2
+expect_error "convert --msh-version to vtu" 2 'msh-version'
+if [ ! -e "$TMP/never.msh" ] && [ ! -e "$TMP/never.vtu" ]; then ok; else fail "convert bad options: output file exists"; fi
+
 # ---- help ------------------------------------------------------------------------------------
 
 run --help

@@ -15,6 +15,7 @@
 #pragma once
 
 #include <idas/mesh/tet_mesh.hpp>
+#include <idas/mesh/tet_quality.hpp>
 #include <idas/ops/operation.hpp>
 #include <idas/ops/tet_op_kinds.hpp>
 #include <idas/ops/tri_ops.hpp>
@@ -30,18 +31,6 @@
 #include <utility>
 
 namespace idas {
-
-/// Shape quality of the tet (a, b, c, d): 6·sqrt(2)·volume / (rms edge length)^3. Scale
-/// invariant; 1 for the regular tet, 0 when flat, negative when inverted.
-inline double tet_quality(const vec3& a, const vec3& b, const vec3& c, const vec3& d) noexcept {
-    const vec3 u = b - a, v = c - a, w = d - a;
-    const double six_volume = dot(u, cross(v, w));
-    const double sum_sq = squared_norm(u) + squared_norm(v) + squared_norm(w) +
-                          squared_norm(c - b) + squared_norm(d - b) + squared_norm(d - c);
-    if (!(sum_sq > 0)) return 0;
-    const double rms = std::sqrt(sum_sq / 6);
-    return std::sqrt(2.0) * six_volume / (rms * rms * rms);
-}
 
 template <class Mesh>
 double tet_quality(const Mesh& m, const tet_indices& t) {

@@ -1,0 +1,150 @@
+// Quality measures of tetrahedra, one tet at a time and summarized over a tet list:
+// signed volume, the shape quality that the tet operations optimise, dihedral angles, and
+// the conformal AMIPS energy.
+//
+// AMIPS (the "3D conformal AMIPS" energy of Hu et al., "Tetrahedral Meshing in the Wild",
+// SIGGRAPH 2018). Let E = [b - a, c - a, d - a] (columns) and R the same matrix for the
+// regular tet with unit edges, (0,0,0), (1,0,0), (1/2, sqrt(3)/2, 0),
+// (1/2, sqrt(3)/6, sqrt(2/3)). With J = E R^-1 (the affine map from the regular tet),
+//     amips(a, b, c, d) = tr(J^T J) / det(J)^(2/3).
+// It is invariant under translation, rotation and uniform scaling; by the AM-GM
+// inequality on the singular values of J it is >= 3, with equality exactly for regular
+// tets (of any size); it grows without bound as the tet flattens, and it is +infinity
+// for flat and inverted tets (det(J) <= 0), which the energy is meant to forbid.
+#pragma once
+
+#include "idas/core/types.hpp"
+#include "idas/predicates/orient.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <limits>
+#include <numbers>
+#include <span>
+
+namespace idas {
+
+/// Signed volume of the tet (a, b, c, d): positive when orient3d(a, b, c, d) > 0 (up to
+/// rounding; use orient3d for an exact sign).
+inline double tet_signed_volume(const vec3& a, const vec3& b, const vec3& c,
+                                const vec3& d) noexcept {
+    return dot(b - a, cross(c - a, d - a)) / 6;
+}
+
+/// Shape quality of the tet (a, b, c, d): 6·sqrt(2)·volume / (rms edge length)^3. Scale
+/// invariant; 1 for the regular tet, 0 when flat, negative when inverted. The tet
+/// operations maximise it (edge removal's triangulation, swaps' acceptance).
+inline double tet_quality(const vec3& a, const vec3& b, const vec3& c, const vec3& d) noexcept {
+    const vec3 u = b - a, v = c - a, w = d - a;
+    const double six_volume = dot(u, cross(v, w));
+    const double sum_sq = squared_norm(u) + squared_norm(v) + squared_norm(w) +
+                          squared_norm(c - b) + squared_norm(d - b) + squared_norm(d - c);
+    if (!(sum_sq > 0)) return 0;
+    const double rms = std::sqrt(sum_sq / 6);
+    return std::sqrt(2.0) * six_volume / (rms * rms * rms);
+}
+
+/// The local edges of a tet (a, b, c, d) = (p0, p1, p2, p3), in tet_mesh's local order.
+inline constexpr std::array<std::array<int, 2>, 6> tet_edge_corners = {
+    {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}}};
+
+/// The interior dihedral angles (radians, in [0, pi]) at the six edges, in the order of
+/// tet_edge_corners. Unsigned, so an inverted tet has the angles of its mirror image; a
+/// flat tet has angles 0 and pi; a zero-length edge gives 0 at the edges it spoils.
+inline std::array<double, 6> tet_dihedral_angles(const vec3& a, const vec3& b, const vec3& c,
+                                                 const vec3& d) noexcept {
+    const std::array<vec3, 4> p = {a, b, c, d};
+    std::array<double, 6> out{};
+    for (std::size_t e = 0; e < 6; ++e) {
+        const int i = tet_edge_corners[e][0], j = tet_edge_corners[e][1];
+        int k = 0;
+        while (k == i || k == j) ++k;
+        const int l = 6 - i - j - k;
+        // Normals of the two faces through edge ij; the angle between the half-planes
+        // is the angle between them. atan2 stays accurate near 0 and pi.
+        const vec3 axis = p[j] - p[i];
+        const vec3 nk = cross(axis, p[k] - p[i]), nl = cross(axis, p[l] - p[i]);
+        out[e] = std::atan2(norm(cross(nk, nl)), dot(nk, nl));
+    }
+    return out;
+}
+
+/// The conformal AMIPS energy described at the top of this file: 3 for a regular tet,
+/// larger for any other shape, +infinity when flat or inverted (computed det <= 0).
+inline double tet_amips(const vec3& a, const vec3& b, const vec3& c, const vec3& d) noexcept {
+    const vec3 u = b - a, v = c - a, w = d - a;
+    // Columns of J = E R^-1; R^-1 = [[1, -1/sqrt3, -1/sqrt6], [0, 2/sqrt3, -1/sqrt6],
+    // [0, 0, 3/sqrt6]] (R is upper triangular), and det R^-1 = sqrt(2).
+    const double inv_sqrt3 = 1 / std::numbers::sqrt3, inv_sqrt6 = 1 / std::sqrt(6.0);
+    const vec3 j1 = u, j2 = (2 * v - u) * inv_sqrt3, j3 = (3 * w - u - v) * inv_sqrt6;
+    const double det = std::numbers::sqrt2 * dot(u, cross(v, w));
+    if (!(det > 0)) return std::numeric_limits<double>::infinity();
+    const double frobenius_sq = squared_norm(j1) + squared_norm(j2) + squared_norm(j3);
+    return frobenius_sq / std::cbrt(det * det);
+}
+
+struct tet_quality_summary {
+    struct range {
+        double min = 0, mean = 0, max = 0;
+    };
+    std::size_t tets = 0;
+    std::size_t inverted = 0; // exact orient3d < 0
+    std::size_t flat = 0;     // exact orient3d == 0
+    double total_volume = 0;  // signed sum
+    range volume;
+    range dihedral_deg; // over all six angles of every tet
+    /// AMIPS over the tets whose energy is finite (`amips_finite` of them); all zero when
+    /// there are none.
+    range amips;
+    std::size_t amips_finite = 0;
+    /// idas::tet_quality over all tets (negative for inverted ones).
+    range quality;
+};
+
+/// Summary of the tets (a, b, c, d) = (vertices[t[0]], ..., vertices[t[3]]) of `tets`.
+/// Precondition: every index is in range (as the volume readers guarantee). Ranges of an
+/// empty list are all zero.
+inline tet_quality_summary summarize_tet_quality(std::span<const vec3> vertices,
+                                                 std::span<const tet_indices> tets) {
+    tet_quality_summary s;
+    s.tets = tets.size();
+    if (tets.empty()) return s;
+    constexpr double inf = std::numeric_limits<double>::infinity();
+    constexpr double to_deg = 180.0 / std::numbers::pi;
+    using range = tet_quality_summary::range;
+    range vol{inf, 0, -inf}, dih{inf, 0, -inf}, amips{inf, 0, -inf}, q{inf, 0, -inf};
+    double sum_amips = 0, sum_q = 0, sum_dih = 0;
+    for (const tet_indices& t : tets) {
+        const vec3 &a = vertices[t[0]], &b = vertices[t[1]], &c = vertices[t[2]],
+                   &d = vertices[t[3]];
+        const int o = orient3d(a, b, c, d);
+        s.inverted += o < 0 ? 1 : 0;
+        s.flat += o == 0 ? 1 : 0;
+        const double v = tet_signed_volume(a, b, c, d);
+        s.total_volume += v;
+        vol.min = std::min(vol.min, v), vol.max = std::max(vol.max, v);
+        for (double angle : tet_dihedral_angles(a, b, c, d)) {
+            dih.min = std::min(dih.min, angle), dih.max = std::max(dih.max, angle);
+            sum_dih += angle;
+        }
+        const double e = tet_amips(a, b, c, d);
+        if (e < inf) {
+            ++s.amips_finite, sum_amips += e;
+            amips.min = std::min(amips.min, e), amips.max = std::max(amips.max, e);
+        }
+        const double qt = tet_quality(a, b, c, d);
+        sum_q += qt;
+        q.min = std::min(q.min, qt), q.max = std::max(q.max, qt);
+    }
+    const auto n = static_cast<double>(tets.size());
+    s.volume = {vol.min, s.total_volume / n, vol.max};
+    s.dihedral_deg = {dih.min * to_deg, sum_dih / (6 * n) * to_deg, dih.max * to_deg};
+    if (s.amips_finite > 0)
+        s.amips = {amips.min, sum_amips / static_cast<double>(s.amips_finite), amips.max};
+    s.quality = {q.min, sum_q / n, q.max};
+    return s;
+}
+
+} // namespace idas
