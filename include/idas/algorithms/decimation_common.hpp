@@ -24,6 +24,47 @@ void push_star_edges(const Mesh& m, const op_result<typename Mesh::tuple>& r, Pu
     }
 }
 
+/// Decimation queues name every edge by one canonical tuple: in the face where the edge
+/// runs from its smaller to its larger vertex id (the only face, on the boundary). A
+/// collapse rewrites just the faces of the merged vertex's star, so a queued rim edge whose
+/// canonical face lies outside the star is still valid, with an unchanged priority (its
+/// length and its vertices' quadrics are untouched), and need not be pushed again. That
+/// halves the rim pushes, which were nine tenths stale.
+template <class Mesh>
+bool runs_upwards(const Mesh& m, const typename Mesh::tuple& t) {
+    const auto& fv = m.face_vertices(t.fid);
+    return fv[(t.local_edge + 1) % 3] < fv[(t.local_edge + 2) % 3];
+}
+
+/// Every edge once, by its canonical tuple (the initial queue of a decimation).
+template <class Op, class Mesh, class Push>
+void push_all_edges(const Mesh& m, Push& push) {
+    m.for_each_edge([&](const typename Mesh::tuple& t) {
+        if (runs_upwards(m, t)) return push(Op{}, t);
+        const auto g = m.switch_face(t);
+        push(Op{}, g ? *g : t);
+    });
+}
+
+/// After a collapse into a: every spoke (a, x), whose priority changed, and the rim edges
+/// (x, y) whose canonical face was rewritten. The queue must hold canonical tuples only
+/// (push_all_edges first). Each edge is seen from the star face where it runs upwards, or
+/// from its only face on the boundary; so no face across an edge need be looked up, except
+/// to tell boundary edges apart.
+template <class Op, class Mesh, class Push>
+void push_changed_edges(const Mesh& m, const op_result<typename Mesh::tuple>& r, Push& push) {
+    const bool open_fan = m.is_boundary_vertex(r.anchor.vid);
+    for (const auto& spoke : r.cells) {
+        const auto back = m.switch_edge(spoke);                 // (prev, a)
+        const auto rim = m.switch_edge(m.switch_vertex(spoke)); // (next, prev)
+        if (runs_upwards(m, spoke) || (open_fan && m.is_boundary_edge(spoke))) push(Op{}, spoke);
+        // Interior spokes are pushed from the face where they run upwards; (prev, a) is
+        // another cell's (a, next) unless it is on the boundary.
+        if (open_fan && !runs_upwards(m, back) && m.is_boundary_edge(back)) push(Op{}, back);
+        if (runs_upwards(m, rim) || m.is_boundary_edge(rim)) push(Op{}, rim);
+    }
+}
+
 /// Stops a decimation once the live face count reaches the target.
 struct face_target {
     std::int64_t target_faces = 0;

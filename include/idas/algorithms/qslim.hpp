@@ -143,9 +143,14 @@ struct qslim_spec : face_target {
     auto invariants() const { return invariant_set<no_normal_flip>{}; }
 
     template <class Mesh, class Push>
+    void initial(const Mesh& m, Push& push) const {
+        push_all_edges<op::collapse_edge>(m, push);
+    }
+
+    template <class Mesh, class Push>
     void renew(op::collapse_edge, const Mesh& m, const op_result<typename Mesh::tuple>& r,
                Push& push) const {
-        push_star_edges<op::collapse_edge>(m, r, push);
+        push_changed_edges<op::collapse_edge>(m, r, push);
     }
 };
 

@@ -49,9 +49,14 @@ struct shortest_edge_collapse_spec : face_target {
     }
 
     template <class Mesh, class Push>
+    void initial(const Mesh& m, Push& push) const {
+        push_all_edges<op::collapse_edge>(m, push);
+    }
+
+    template <class Mesh, class Push>
     void renew(op::collapse_edge, const Mesh& m, const op_result<typename Mesh::tuple>& r,
                Push& push) const {
-        push_star_edges<op::collapse_edge>(m, r, push);
+        push_changed_edges<op::collapse_edge>(m, r, push);
     }
 };
 

@@ -136,9 +136,17 @@ public:
                       }) {
             return conn_.is_boundary_vertex(v); // a backend that circulates knows directly
         } else {
-            boost::container::small_vector<index_t, 24> ring;
-            one_ring_vertices(v, ring);
-            return std::cmp_not_equal(ring.size(), std::ranges::distance(conn_.vertex_faces(v)));
+            // Around an interior vertex every neighbour follows v in one face and precedes
+            // it in another; an open fan (a manifold vertex has one fan) starts and ends at
+            // two different neighbours. So the sums of followers and predecessors differ
+            // exactly on the boundary: O(valence), no search.
+            std::uint64_t followers = 0, predecessors = 0;
+            for (index_t f : conn_.vertex_faces(v)) {
+                const auto& fv = conn_.face_vertices(f);
+                const int i = fv[0] == v ? 0 : fv[1] == v ? 1 : 2;
+                followers += fv[(i + 1) % 3], predecessors += fv[(i + 2) % 3];
+            }
+            return followers != predecessors;
         }
     }
 
