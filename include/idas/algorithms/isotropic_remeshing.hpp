@@ -65,7 +65,7 @@ vec3 vertex_normal(const Mesh& m, index_t v) {
 template <class Mesh>
 double valence_deviation(const Mesh& m, const remeshing_state& s, index_t v, int change) {
     const bool boundary = m.attribute(s.boundary)[v] != 0;
-    const double valence = double(std::ranges::size(m.vertex_faces(v))) + (boundary ? 1 : 0);
+    const double valence = double(std::ranges::distance(m.vertex_faces(v))) + (boundary ? 1 : 0);
     const double x = valence + change - (boundary ? 4.0 : 6.0);
     return x * x;
 }
