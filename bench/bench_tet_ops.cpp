@@ -33,6 +33,18 @@
 //   flip(Edge); Epick kernel; compiled only when CGAL is found). Both check orientations
 //   exactly (filtered) and that the new edge does not exist yet; idas also checks the
 //   3-2's face and runs its journal and invariant protocol. time/op is per flip.
+// * commit/split_edge/cgal: CGAL::Triangulation_3::insert_in_edge at the edge midpoint
+//   (the Delaunay triangulation's base class, so no Delaunay repair), over an independent
+//   set of finite edges of the same triangulation (vertex-disjoint neighbourhoods, so every
+//   edge handle stays valid while the others are split), on a fresh copy per pass with
+//   container capacity reserved, as for idas' commit rows. CGAL only rewires cells here; idas'
+//   split also checks orientations exactly and journals. No other CGAL 5.5 Triangulation_3
+//   operation matches an idas one: it has no 4-4 flip, no n-to-(2n-4) edge removal, no edge
+//   collapse and no smoothing (those live inside Tetrahedral_remeshing, not as public triangulation
+//   operations).
+// * mem/cgal: bytes per finite tet of CGAL's triangulation data structure: capacity of the
+//   cell and vertex containers times sizeof(Cell) and sizeof(Vertex) (the vertex holds
+//   its point), divided by the finite cells (infinite cells are CGAL's own overhead).
 #include <idas/invariants/positive_orientation.hpp>
 #include <idas/mesh/tet_mesh.hpp>
 #include <idas/ops/tet_ops.hpp>
@@ -46,6 +58,7 @@
 
 #include <cstdlib>
 #include <iterator>
+#include <map>
 #include <set>
 #endif
 
@@ -326,8 +339,8 @@ using cgal_kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
 using cgal_dt = CGAL::Delaunay_triangulation_3<cgal_kernel>;
 using cgal_tr = cgal_dt::Tr_Base; // its Triangulation_3 base, where flip() lives
 
-void bm_pair_cgal(benchmark::State& st) {
-    static cgal_dt dt = [] {
+const cgal_dt& cgal_cube() {
+    static const cgal_dt dt = [] {
         const auto& m = cube_mesh();
         std::vector<cgal_kernel::Point_3> pts;
         for (index_t v = 0; v < m.vertex_slots(); ++v) {
@@ -336,6 +349,11 @@ void bm_pair_cgal(benchmark::State& st) {
         }
         return cgal_dt(pts.begin(), pts.end());
     }();
+    return dt;
+}
+
+void bm_pair_cgal(benchmark::State& st) {
+    static cgal_dt dt = cgal_cube(); // a copy: the flips below edit it in place
     cgal_tr& tr = dt;
     using vh = cgal_dt::Vertex_handle;
     struct cand {
@@ -386,6 +404,95 @@ void bm_pair_cgal(benchmark::State& st) {
     st.counters["time/op"] = benchmark::Counter(double(2 * ops), benchmark::Counter::kIsRate |
                                                                      benchmark::Counter::kInvert);
 }
+
+void bm_split_cgal(benchmark::State& st) {
+    const cgal_dt& base = cgal_cube();
+    using vh = cgal_dt::Vertex_handle;
+    using point = cgal_kernel::Point_3;
+    // The set as point pairs, found again by coordinates in every fresh copy.
+    static const std::vector<std::pair<point, point>> set = [&] {
+        std::vector<cgal_dt::Edge> edges(base.finite_edges_begin(), base.finite_edges_end());
+        std::mt19937 rng(42);
+        std::shuffle(edges.begin(), edges.end(), rng);
+        std::vector<std::pair<point, point>> out;
+        std::set<vh> used;
+        std::vector<cgal_dt::Cell_handle> cells;
+        std::vector<vh> hood;
+        for (const cgal_dt::Edge& e : edges) {
+            const auto c = e.first;
+            const int i = e.second, j = e.third;
+            hood.clear();
+            for (int end : {i, j}) {
+                cells.clear();
+                base.incident_cells(c->vertex(end), std::back_inserter(cells));
+                for (auto cc : cells)
+                    for (int k = 0; k < 4; ++k) hood.push_back(cc->vertex(k));
+            }
+            if (std::any_of(hood.begin(), hood.end(),
+                            [&](vh x) { return base.is_infinite(x) || used.count(x); }))
+                continue;
+            for (vh x : hood) used.insert(x);
+            out.emplace_back(c->vertex(i)->point(), c->vertex(j)->point());
+        }
+        return out;
+    }();
+    cgal_dt dt;
+    std::vector<cgal_dt::Edge> todo;
+    std::size_t i = set.size(), ok = 0, ops = 0, ring_sum = 0;
+    for (auto _ : st) {
+        if (i == set.size()) {
+            st.PauseTiming();
+            dt = base;
+            // Capacity for the whole pass, as idas' commit rows reserve() theirs: a split
+            // replaces the ring's cells by twice as many and adds one vertex.
+            auto& cells = dt.tds().cells();
+            cells.reserve(cells.size() + 16 * set.size());
+            dt.tds().vertices().reserve(dt.tds().vertices().size() + set.size());
+            std::map<point, vh> by_point;
+            for (auto v = dt.finite_vertices_begin(); v != dt.finite_vertices_end(); ++v)
+                by_point.emplace(v->point(), v);
+            todo.clear();
+            ring_sum = 0;
+            for (const auto& [p, q] : set) {
+                cgal_dt::Cell_handle c;
+                int a = 0, b = 0;
+                if (!dt.is_edge(by_point.at(p), by_point.at(q), c, a, b)) std::abort();
+                todo.emplace_back(c, a, b);
+                auto circ = dt.incident_cells(todo.back()), done = circ;
+                do ++ring_sum;
+                while (++circ != done);
+            }
+            i = 0;
+            st.ResumeTiming();
+        }
+        const cgal_dt::Edge& e = todo[i++];
+        const auto c = e.first;
+        const point mid = CGAL::midpoint(c->vertex(e.second)->point(), c->vertex(e.third)->point());
+        const vh v = static_cast<cgal_tr&>(dt).insert_in_edge(mid, c, e.second, e.third);
+        ok += v != vh();
+        ++ops;
+    }
+    st.counters["ok"] = double(ok) / double(ops);
+    st.counters["set"] = double(set.size());
+    st.counters["ring"] = double(ring_sum) / double(set.size());
+}
+
+void bm_memory_cgal(benchmark::State& st) {
+    const cgal_dt& dt = cgal_cube();
+    std::size_t bytes = 0;
+    for (auto _ : st) {
+        bytes = dt.tds().cells().capacity() * sizeof(cgal_dt::Cell) +
+                dt.tds().vertices().capacity() * sizeof(cgal_dt::Vertex);
+        benchmark::DoNotOptimize(bytes);
+    }
+    const double tets = double(dt.number_of_finite_cells());
+    st.counters["tets"] = tets;
+    st.counters["vertices"] = double(dt.number_of_vertices());
+    st.counters["bytes/tet"] = double(bytes) / tets;
+    st.counters["sizeof_cell"] = double(sizeof(cgal_dt::Cell));
+    st.counters["sizeof_vertex"] = double(sizeof(cgal_dt::Vertex));
+    st.counters["cells/tet"] = double(dt.number_of_cells()) / tets;
+}
 #endif
 
 void bm_memory(benchmark::State& st) {
@@ -414,6 +521,8 @@ int main(int argc, char** argv) {
     benchmark::RegisterBenchmark("pair/face_swap_23+edge_swap_32/idas", bm_pair_idas);
 #if IDAS_BENCH_WITH_CGAL
     benchmark::RegisterBenchmark("pair/flip23+flip32/cgal", bm_pair_cgal);
+    benchmark::RegisterBenchmark("commit/split_edge/cgal", bm_split_cgal);
+    benchmark::RegisterBenchmark("mem/cgal", bm_memory_cgal);
 #endif
     benchmark::RegisterBenchmark("mem/indexed_tet", bm_memory);
     benchmark::Initialize(&argc, argv);
