@@ -2,8 +2,8 @@
 // executor each, for a number of iterations:
 //
 //   split     edges longer than 4/3 L at their midpoints, longest first
-//   collapse  edges shorter than 4/5 L, shortest first, unless a new edge would be longer
-//             than 4/3 L
+//   collapse  edges shorter than 4/5 L, shortest first, into one of their endpoints, unless
+//             a new edge would be longer than 4/3 L
 //   swap      edges whose flip brings the four vertices' valences towards 6 (4 on the
 //             boundary)
 //   smooth    every vertex towards the centroid of its neighbours, within its tangent
@@ -48,6 +48,11 @@ struct remeshing_state {
     // a collapse's survivor is if either end was), so valences are O(1) to get.
     vertex_attribute<std::uint8_t> boundary;
     std::shared_ptr<const triangle_aabb_tree> input;
+    // Smoothing pass stamp: a vertex whose `smoothed` equals `pass` was moved in this pass.
+    // Moving a vertex renews its neighbours' faces (their queue entries go stale), so the
+    // smoothing phase re-enqueues neighbours not yet moved and skips those already moved.
+    vertex_attribute<std::uint32_t> smoothed;
+    std::uint32_t pass = 0;
 };
 
 namespace detail {
@@ -198,9 +203,12 @@ struct remesh_collapse_spec : detail::with_invariants<Extra...> {
         if (!(squared_norm(m.position(a) - m.position(b)) < lo * lo)) return std::nullopt;
         const auto fr = m.attribute(s->frozen), bd = m.attribute(s->boundary);
         if (fr[b]) return std::nullopt; // a frozen vertex never vanishes
-        vec3 p = fr[a] ? m.position(a) : (m.position(a) + m.position(b)) * 0.5;
-        if (!fr[a] && bd[a] != bd[b])
-            p = m.position(bd[a] ? a : b); // keep an open boundary in place
+        // The survivor stays where an endpoint was (a, or b if only b is on an open
+        // boundary), so it stays on the input surface: a midpoint would cut chords into
+        // curved regions (armadillo: farthest output point 0.0025 -> 0.0021 of the
+        // diagonal from the input), and the length check below then refuses more collapses.
+        vec3 p = m.position(a);
+        if (!fr[a] && bd[b] && !bd[a]) p = m.position(b); // keep an open boundary in place
         // Refuse if the merged vertex would get an edge longer than 4/3 L.
         for (index_t v : {a, b})
             for (index_t f : m.vertex_faces(v))
@@ -235,6 +243,13 @@ struct remesh_swap_spec : detail::with_invariants<Extra...> {
     using operations = op_list<op::swap_edge>;
     remeshing_state* s = nullptr;
 
+    // Only candidates enter the queue: most edges are not worth flipping.
+    template <class Push, class Mesh>
+    void initial(const Mesh& m, Push& push) const {
+        m.for_each_edge([&](const typename Mesh::tuple& t) {
+            if (before(op::swap_edge{}, m, t)) push(op::swap_edge{}, t);
+        });
+    }
     template <class Mesh>
     bool before(op::swap_edge, const Mesh& m, const typename Mesh::tuple& t) const {
         if (m.is_boundary_edge(t)) return false;
@@ -258,6 +273,25 @@ struct remesh_swap_spec : detail::with_invariants<Extra...> {
         if (then < now) return new_min >= 0.5 * old_min;
         return old_min < 0.35 && new_min > 1.5 * old_min; // 0.35 rad = 20 degrees
     }
+    // A flip renews its two faces, so the entries of the quad's four outer edges went
+    // stale: enqueue them again. Terminates: a flip either lowers the valence deviation or
+    // keeps it and replaces the quad's smallest angle by a larger one.
+    template <class Mesh, class Push>
+    void renew(op::swap_edge, const Mesh& m, const op_result<typename Mesh::tuple>& r,
+               Push& push) const {
+        if (r.cells.size() != 2) return;
+        for (int i = 0; i < 2; ++i) {
+            const auto& other = m.face_vertices(r.cells[1 - i].fid);
+            auto in_other = [&](index_t v) {
+                return other[0] == v || other[1] == v || other[2] == v;
+            };
+            for (std::uint8_t le = 0; le < 3; ++le) {
+                const auto t = m.tuple_from_edge(r.cells[i].fid, le);
+                const auto [x, y] = m.edge_vertices(t);
+                if (!(in_other(x) && in_other(y))) push(op::swap_edge{}, t); // not the diagonal
+            }
+        }
+    }
 };
 
 template <class... Extra>
@@ -267,10 +301,21 @@ struct remesh_smooth_spec : detail::with_invariants<Extra...> {
     bool project = true;
 
     template <class Mesh>
+    bool movable(const Mesh& m, index_t v) const {
+        return !m.attribute(s->frozen)[v] && !m.attribute(s->boundary)[v] &&
+               m.attribute(s->smoothed)[v] != s->pass;
+    }
+    template <class Push, class Mesh>
+    void initial(const Mesh& m, Push& push) const {
+        m.for_each_vertex([&](const typename Mesh::tuple& t) {
+            if (movable(m, t.vid)) push(op::smooth_vertex{}, t);
+        });
+    }
+    template <class Mesh>
     std::optional<vec3> before(op::smooth_vertex, const Mesh& m,
                                const typename Mesh::tuple& t) const {
         const index_t v = t.vid;
-        if (m.attribute(s->frozen)[v] || m.attribute(s->boundary)[v]) return std::nullopt;
+        if (!movable(m, v)) return std::nullopt;
         boost::container::small_vector<index_t, 32> ring;
         m.one_ring_vertices(v, ring);
         vec3 c{};
@@ -285,7 +330,18 @@ struct remesh_smooth_spec : detail::with_invariants<Extra...> {
     bool after(op::smooth_vertex, Mesh& m, const op_result<typename Mesh::tuple>& r,
                const vec3& q) const {
         m.positions().set(r.anchor.vid, q);
+        m.attribute(s->smoothed).set(r.anchor.vid, s->pass);
         return true;
+    }
+    // The move renewed the neighbours' faces: re-enqueue those still to be moved (their
+    // old entries are stale). The neighbours are in the locked region.
+    template <class Mesh, class Push>
+    void renew(op::smooth_vertex, const Mesh& m, const op_result<typename Mesh::tuple>& r,
+               Push& push) const {
+        boost::container::small_vector<index_t, 32> ring;
+        m.one_ring_vertices(r.anchor.vid, ring);
+        for (index_t w : ring)
+            if (movable(m, w)) push(op::smooth_vertex{}, m.tuple_from_vertex(w));
     }
 };
 
@@ -308,6 +364,7 @@ struct isotropic_remeshing {
         s.frozen = m.template add_vertex_attribute<std::uint8_t>("remesh_frozen", 0);
         s.feature = m.template add_vertex_attribute<std::uint8_t>("remesh_feature", 0);
         s.boundary = m.template add_vertex_attribute<std::uint8_t>("remesh_boundary", 0);
+        s.smoothed = m.template add_vertex_attribute<std::uint32_t>("remesh_smoothed", 0);
         {
             auto [V, F] = m.to_arrays();
             if (o.project) s.input = std::make_shared<const triangle_aabb_tree>(V, F);
@@ -329,6 +386,7 @@ struct isotropic_remeshing {
             const auto c =
                 executor<remesh_swap_spec<Extra...>, Mesh, Lock, queue::fifo, Partition>::run(
                     m, swap, exec);
+            ++s.pass;
             const auto d =
                 executor<remesh_smooth_spec<Extra...>, Mesh, Lock, queue::fifo, Partition>::run(
                     m, smooth, exec);
