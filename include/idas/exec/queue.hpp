@@ -2,7 +2,11 @@
 // kind); lower priority values are processed first.
 #pragma once
 
+#include <idas/core/tuple.hpp>
+
 #include <algorithm>
+#include <array>
+#include <bit>
 #include <concepts>
 #include <cstdint>
 #include <vector>
@@ -24,6 +28,8 @@ concept queue_for = std::default_initializable<Q> && requires(Q q, const E& e, E
     { q.size() } -> std::convertible_to<std::size_t>;
     {q.clear()};
     {q.reserve(std::size_t{})};
+    // The executor sweeps stale entries out of large queues.
+    {q.erase_if([](const E&) { return false; })};
 };
 
 /// A queue policy names a family of queues, one per entry type.
@@ -163,6 +169,118 @@ struct fifo {
     };
 };
 
+/// Bucketed heap: the priority's IEEE bits, mapped to an unsigned key in the same order,
+/// pick one of 2^Bits buckets by their leading bits (sign, exponent and Bits - 12 mantissa
+/// bits: an order-preserving radix split into 2^(Bits - 12) ranges per octave); each
+/// bucket is a binary heap and pops come from the lowest non-empty bucket, found with a
+/// two-level bitmap. Pops come out in exactly the order of binary_heap, but a pop sifts
+/// through one small bucket, and decimation's pops and most of its pushes stay in the
+/// few low buckets, which stay in cache. Costs 2^Bits empty vectors per queue.
+template <unsigned Bits = 16>
+struct bucket_heap {
+    static_assert(Bits >= 12 && Bits <= 18); // the bitmap lives inside the queue
+    template <class E>
+    class type {
+    public:
+        static constexpr std::size_t buckets = std::size_t{1} << Bits;
+
+        void push(const E& e) {
+            const std::size_t b = bucket_of(e.priority);
+            if (buckets_.empty()) buckets_.resize(buckets);
+            auto& h = buckets_[b];
+            h.push_back(e);
+            std::push_heap(h.begin(), h.end(), later);
+            if (h.size() == 1) mark(b);
+            lowest_ = std::min(lowest_, b);
+            ++size_;
+        }
+        bool pop(E& out) {
+            if (size_ == 0) return false;
+            auto& h = buckets_[lowest_];
+            std::pop_heap(h.begin(), h.end(), later);
+            out = h.back();
+            h.pop_back();
+            --size_;
+            if (h.empty()) {
+                unmark(lowest_);
+                lowest_ = next_marked(lowest_);
+            }
+            return true;
+        }
+        std::size_t size() const noexcept { return size_; }
+        void clear() noexcept {
+            for (std::size_t b = next_marked(0); b < buckets; b = next_marked(b + 1)) {
+                buckets_[b].clear();
+                unmark(b);
+            }
+            size_ = 0, lowest_ = buckets;
+        }
+        /// The buckets' sizes are not known in advance; they grow as needed.
+        void reserve(std::size_t) {}
+        template <class Pred>
+        void erase_if(Pred&& stale) {
+            for (std::size_t b = next_marked(0); b < buckets; b = next_marked(b + 1)) {
+                auto& h = buckets_[b];
+                size_ -= std::erase_if(h, stale);
+                if (h.empty())
+                    unmark(b);
+                else
+                    std::make_heap(h.begin(), h.end(), later);
+            }
+            lowest_ = next_marked(0);
+        }
+
+    private:
+        /// Order-preserving map of a double to a bucket (NaNs go to the ends).
+        static std::size_t bucket_of(double p) noexcept {
+            if (p == 0) p = 0; // -0.0 equals +0.0 for the heaps, so it must share its bucket
+            const auto u = std::bit_cast<std::uint64_t>(p);
+            const std::uint64_t key = (u >> 63) ? ~u : (u | (std::uint64_t{1} << 63));
+            return static_cast<std::size_t>(key >> (64 - Bits));
+        }
+        void mark(std::size_t b) noexcept {
+            words_[b / 64] |= std::uint64_t{1} << (b % 64);
+            summary_[b / 4096] |= std::uint64_t{1} << (b / 64 % 64);
+        }
+        void unmark(std::size_t b) noexcept {
+            words_[b / 64] &= ~(std::uint64_t{1} << (b % 64));
+            if (words_[b / 64] == 0) summary_[b / 4096] &= ~(std::uint64_t{1} << (b / 64 % 64));
+        }
+        /// The first non-empty bucket at or after b, or `buckets` if there is none.
+        std::size_t next_marked(std::size_t b) const noexcept {
+            if (b >= buckets) return buckets;
+            std::size_t w = b / 64;
+            if (const std::uint64_t bits = words_[w] & (~std::uint64_t{0} << (b % 64)))
+                return w * 64 + static_cast<std::size_t>(std::countr_zero(bits));
+            ++w; // search the summary for the next non-empty word
+            for (std::size_t s = w / 64; s < summary_.size(); ++s) {
+                std::uint64_t bits = summary_[s];
+                if (s == w / 64) bits &= ~std::uint64_t{0} << (w % 64);
+                if (bits) {
+                    const std::size_t word =
+                        s * 64 + static_cast<std::size_t>(std::countr_zero(bits));
+                    return word * 64 + static_cast<std::size_t>(std::countr_zero(words_[word]));
+                }
+            }
+            return buckets;
+        }
+        static bool later(const E& a, const E& b) noexcept {
+            if (a.priority != b.priority) return a.priority > b.priority;
+            if (a.tuple.fid != b.tuple.fid) return a.tuple.fid > b.tuple.fid;
+            return a.tuple.local_edge > b.tuple.local_edge;
+        }
+        std::vector<std::vector<E>> buckets_; // allocated on the first push
+        std::array<std::uint64_t, buckets / 64> words_{};
+        std::array<std::uint64_t, (buckets / 64 + 63) / 64> summary_{};
+        std::size_t size_ = 0, lowest_ = buckets;
+    };
+};
+
 } // namespace queue
+
+static_assert(queue_policy<queue::binary_heap, queue_entry<tri_tuple>>);
+static_assert(queue_policy<queue::dary_heap<4>, queue_entry<tri_tuple>>);
+static_assert(queue_policy<queue::fifo, queue_entry<tri_tuple>>);
+static_assert(queue_policy<queue::bucket_heap<>, queue_entry<tri_tuple>>);
 
 } // namespace idas
