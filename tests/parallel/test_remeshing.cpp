@@ -95,14 +95,14 @@ TEST_CASE_TEMPLATE("parallel remeshing: bunny and blub on 2 and 8 threads", Mesh
     check_remesh<Mesh>("blub.obj", 0.01, 8);
 }
 
-TEST_CASE("every smoothing pass moves every free vertex") {
+TEST_CASE_TEMPLATE("every smoothing pass moves every free vertex", Mesh, IDAS_TRI_MESHES) {
     // Moving a vertex renews its neighbours' faces; their queue entries must be renewed
     // too, or about half of the vertices are never smoothed.
-    auto m = idas::test::load("blub.obj");
+    auto m = idas::test::load<Mesh>("blub.obj");
     remeshing_options o;
     o.target_length = 0.02 * diagonal(m);
     o.iterations = 1;
-    const auto r = isotropic_remeshing<>::run(m, o, {.threads = 1});
+    const auto r = isotropic_remeshing<Mesh>::run(m, o, {.threads = 1});
     std::size_t free = 0; // blub is closed: every vertex is free to move
     m.for_each_vertex([&](const tri_tuple&) { ++free; });
     CHECK(r.smooths >= free - free / 50); // a few moves may be refused (normal flip)
