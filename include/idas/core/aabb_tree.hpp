@@ -117,6 +117,13 @@ public:
         return search(q, max_squared_distance, invalid_index);
     }
 
+    /// The same, starting from the distance to `face_hint` (a face likely to be near q):
+    /// the answer does not depend on the hint, only the speed.
+    closest_point_result closest_point(const vec3& q, double max_squared_distance,
+                                       index_t face_hint) const {
+        return search(q, max_squared_distance, face_hint);
+    }
+
     /// The closest point, starting from the distance to `face_hint` (for instance the face a
     /// moving vertex was last projected onto). The answer does not depend on the hint, only
     /// the speed; an out-of-range hint is ignored.
