@@ -3,7 +3,7 @@
 # Polygon_mesh_processing::isotropic_remeshing.
 #
 #   bench/run_remeshing.sh [--repeats N] [--samples S] [--length L] [--iterations K]
-#                          [--envelope EPS] [--build-dir DIR]
+#                          [--envelope EPS] [--build-dir DIR] [--before-bin FILE]
 #
 # Builds bench_remeshing (CMake preset "bench", or the given build directory), then runs
 # every case as its own process:
@@ -18,6 +18,10 @@
 # object per run goes to bench/remeshing_results.jsonl; bench/plot_remeshing.py then draws
 # bench/remeshing.png and rewrites the "## Remeshing" section of bench/RESULTS.md (other
 # sections are kept).
+#
+# --before-bin FILE: a bench_remeshing built from an older revision; its idas serial runs
+# (no envelope) go, interleaved with the others, to bench/remeshing_before.jsonl and into
+# a before/after table.
 set -euo pipefail
 
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -28,6 +32,7 @@ length=0.005
 iterations=5
 envelope=1e-3
 build_dir=""
+before_bin=""
 while [[ $# -gt 0 ]]; do
     case "$1" in
     --repeats) repeats="$2"; shift 2 ;;
@@ -36,16 +41,18 @@ while [[ $# -gt 0 ]]; do
     --iterations) iterations="$2"; shift 2 ;;
     --envelope) envelope="$2"; shift 2 ;;
     --build-dir) build_dir="$2"; shift 2 ;;
+    --before-bin) before_bin="$2"; shift 2 ;;
     *)
         echo "usage: bench/run_remeshing.sh [--repeats N] [--samples S] [--length L]" \
-            "[--iterations K] [--envelope EPS] [--build-dir DIR]" >&2
+            "[--iterations K] [--envelope EPS] [--build-dir DIR] [--before-bin FILE]" >&2
         exit 2
         ;;
     esac
 done
-command_line="bench/run_remeshing.sh --repeats $repeats --samples $samples --length $length --iterations $iterations --envelope $envelope"
+command_line="bench/run_remeshing.sh --repeats $repeats --samples $samples --length $length --iterations $iterations --envelope $envelope${before_bin:+ --before-bin $before_bin}"
 
 results="$root/bench/remeshing_results.jsonl"
+before_results="$root/bench/remeshing_before.jsonl"
 if [[ -z "$build_dir" ]]; then
     build="cmake --preset bench && cmake --build --preset bench --target bench_remeshing"
     cmake --preset bench >/dev/null
@@ -58,6 +65,7 @@ fi
 bin="$build_dir/bench/bench_remeshing"
 log="$build_dir/remeshing.log"
 : >"$results"
+[[ -n "$before_bin" ]] && : >"$before_results"
 : >"$log"
 
 load_before="$(cut -d' ' -f1-3 /proc/loadavg)"
@@ -65,8 +73,11 @@ started=$SECONDS
 date_utc="$(date -u '+%Y-%m-%d %H:%M UTC')"
 
 run_case() { # input rep peer [extra args...]
-    local input="$1" rep="$2" peer="$3"
+    local input="$1" rep="$2" peer="$3" bin="$bin" results="$results"
     shift 3
+    if [[ "$peer" == before ]]; then
+        peer=idas bin="$before_bin" results="$before_results"
+    fi
     local args=(--peer "$peer" --input "$input" --samples "$samples" --length "$length"
         --iterations "$iterations" "$@")
     local line status=0
@@ -85,6 +96,7 @@ for input in bunny armadillo armadillo-x4; do
     for ((rep = 1; rep <= repeats; ++rep)); do
         run_case "$input" "$rep" cgal
         run_case "$input" "$rep" idas --threads 1
+        [[ -n "$before_bin" ]] && run_case "$input" "$rep" before --threads 1
         run_case "$input" "$rep" idas --threads 2
         run_case "$input" "$rep" idas --threads 1 --envelope "$envelope"
         run_case "$input" "$rep" idas --threads 2 --envelope "$envelope"
@@ -103,4 +115,4 @@ export PEERS="CGAL $(awk '$2 == "CGAL_VERSION" {print $3}' /usr/include/CGAL/ver
 python=/usr/bin/python3
 [[ -x "$python" ]] || python=python3
 "$python" "$root/bench/plot_remeshing.py" --results "$results" --png "$root/bench/remeshing.png" \
-    --markdown "$root/bench/RESULTS.md"
+    --markdown "$root/bench/RESULTS.md" ${before_bin:+--before "$before_results"}
