@@ -7,6 +7,8 @@
 //                                              random local operations guarded by invariants
 //   idas decimate IN OUT (--ratio R | --faces N) [--algorithm A] [--threads T] [--backend B]
 //                                              shortest edge collapse or QSlim
+//   idas harmonic OUT (--points IN | --gaussian N [--seed S]) [--mode M] [--threads T]
+//                                              harmonic triangulation of points (cli_harmonic.hpp)
 // B is the connectivity backend, indexed (default) or corner-table.
 // Surface or tets is decided by the extension: .msh is a tet mesh (MSH 2.2/4.1, read and
 // write), .vtu a tet mesh (write only), the rest triangle surfaces (see cli_tet.hpp).
@@ -23,7 +25,12 @@
 #include <idas/mesh/tet_mesh.hpp>
 #include <idas/mesh/tet_quality.hpp>
 #if IDAS_CLI_HAVE_CGAL
+#include <idas/algorithms/harmonic_triangulation.hpp>
+#include <idas/cgal/delaunay.hpp>
 #include <idas/invariants/envelope.hpp>
+#include <idas/io/msh.hpp>
+#include <idas/io/points.hpp>
+#include <idas/io/vtu.hpp>
 #endif
 
 #include <CLI/CLI.hpp>
@@ -688,6 +695,7 @@ int run_decimate(const std::string& in, const std::string& out, const std::strin
 }
 
 #include "cli_remesh.hpp"
+#include "cli_harmonic.hpp"
 #include "cli_tet.hpp"
 
 // ---- main ----------------------------------------------------------------------------------
@@ -790,6 +798,9 @@ int run(int argc, char** argv) {
     remesh->add_flag("--json", ra.as_json, "print one JSON object instead of text");
     remesh->add_flag("--ascii", ra.ascii, "write PLY and STL as text instead of binary");
 
+    harmonic_arguments ha;
+    auto* harmonic = add_harmonic_command(app, ha, unsigned_integer);
+
     try {
         app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {
@@ -805,6 +816,7 @@ int run(int argc, char** argv) {
 
     if (info->parsed()) return is_tet_path(in) ? run_tet_info(in, as_json) : run_info(in, as_json);
     if (remesh->parsed()) return run_remesh(ra);
+    if (harmonic->parsed()) return run_harmonic(ha);
     if (decimate->parsed())
         return with_backend(backend, [&]<class Mesh>(std::type_identity<Mesh>) {
             return run_decimate<Mesh>(in, out, algorithm, ratio, target_faces, threads, as_json,

@@ -412,6 +412,50 @@ run convert "$TMP/one.msh" "$TMP/never.vtu" --msh-version 2.2
 expect_error "convert --msh-version to vtu" 2 'msh-version'
 if [ ! -e "$TMP/never.msh" ] && [ ! -e "$TMP/never.vtu" ]; then ok; else fail "convert bad options: output file exists"; fi
 
+# ---- harmonic --------------------------------------------------------------------------------
+
+run harmonic "$TMP/h.msh" --gaussian 2000 --seed 3 --json
+expect_rc "harmonic gaussian" 0
+expect_field "harmonic gaussian" "d['points']" 2000
+expect_field "harmonic gaussian" "d['mode']" complete
+expect_field "harmonic gaussian" "d['mean_harmonic_index_after'] < d['mean_harmonic_index_before']" True
+expect_field "harmonic gaussian" "d['max_energy_after'] <= d['max_energy_before']" True
+expect_field "harmonic gaussian" "d['flips'] > 0 and d['smoothed'] > 0" True
+if [ -s "$TMP/h.msh" ]; then ok; else fail "harmonic gaussian: no output"; fi
+run info "$TMP/h.msh" --json
+expect_rc "harmonic output reads back" 0
+run harmonic "$TMP/h2.msh" --gaussian 2000 --seed 3 --json
+if cmp -s "$TMP/h.msh" "$TMP/h2.msh"; then ok; else fail "harmonic: serial output not deterministic"; fi
+run harmonic "$TMP/h.vtu" --gaussian 2000 --seed 3 --mode reduced --threads 2 --json
+expect_rc "harmonic reduced vtu 2 threads" 0
+expect_field "harmonic reduced" "d['smoothed']" 0
+expect_field "harmonic reduced" "d['tets_after'] == d['tets_before'] - d['flips']" True
+printf '# four points and a duplicate\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n1 0 0\n0.3 0.3 0.3\n' >"$TMP/pts.xyz"
+run harmonic "$TMP/pts.msh" --points "$TMP/pts.xyz" --json
+expect_rc "harmonic xyz" 0
+expect_field "harmonic xyz" "d['duplicate_points']" 1
+run harmonic "$TMP/g.msh" --points "$DATA/gaussian_points_100k.ply" --mode reduced
+expect_rc "harmonic ply 100k" 0
+printf '0 0 0\n1 0 0\n0 1 0\n1 1 0\n' >"$TMP/flat.xyz"
+run harmonic "$TMP/never_h.msh" --points "$TMP/flat.xyz"
+expect_error "harmonic coplanar points" 2 'flat.xyz'
+printf '0 0 0\n1 zero 0\n' >"$TMP/bad.xyz"
+run harmonic "$TMP/never_h.msh" --points "$TMP/bad.xyz"
+expect_error "harmonic bad xyz" 2 'bad.xyz'
+run harmonic "$TMP/never_h.msh" --points "$TMP/missing.ply"
+expect_error "harmonic missing input" 2 'missing.ply'
+run harmonic "$TMP/never_h.obj" --gaussian 100
+expect_error "harmonic bad output extension" 2 'never_h.obj'
+run harmonic "$TMP/never_h.msh"
+expect_error "harmonic without input" 2
+run harmonic "$TMP/never_h.msh" --gaussian 100 --points "$TMP/pts.xyz"
+expect_error "harmonic with two inputs" 2
+run harmonic "$TMP/never_h.msh" --gaussian 100 --mode fancy
+expect_error "harmonic bad mode" 2
+run harmonic "$TMP/never_h.msh" --gaussian 3
+expect_error "harmonic too few points" 2
+if ls "$TMP" | grep -q 'never_h'; then fail "harmonic: output written on bad input"; else ok; fi
+
 # ---- help ------------------------------------------------------------------------------------
 
 run --help

@@ -13,10 +13,20 @@
 //                                            the operations in flight (one per other worker)
 //   should_process(Op, mesh, entry) -> bool  skip an entry (default: always process)
 //   initial(mesh, push)                      what to enqueue first (default: every edge for
-//                                            edge operations, every vertex for smoothing)
+//                                            edge operations, every face for 2-3 swaps,
+//                                            every vertex for smoothing)
+//   initial_at(mesh, v, push)                or the initial entries found at vertex v, for
+//                                            every live vertex: parallel workers then build
+//                                            their own queues, from the vertices of their part
 //   prepare(mesh)                            one-off set-up before the first priority
 //   lock_region(Op, mesh, tuple, claim)      vertices to hold (default: the closed stars of
 //                                            the operation's vertices, see below)
+//   parallel_growth(mesh)                    slots to set aside for new simplices in parallel:
+//                                            extra vertices (cells: twice that), or a
+//                                            std::pair {extra vertices, extra cells}
+// The same executor runs triangle meshes (cells are faces) and tetrahedral meshes (cells
+// are tets); `progress::faces` counts the mesh's top cells. For tet meshes the operation
+// functions come from ops/tet_ops.hpp, found by argument-dependent lookup.
 // plus the operation hooks (before/after/invariants) used by the operations themselves.
 // Operation kinds are types and dispatch is a fold over them: no std::function, no
 // virtual call, no string, and no allocation per operation once buffers are warm.
@@ -26,6 +36,7 @@
 #include <idas/exec/partition.hpp>
 #include <idas/exec/queue.hpp>
 #include <idas/ops/operation.hpp>
+#include <idas/ops/tet_op_kinds.hpp>
 #include <idas/ops/tri_ops.hpp>
 
 #include <boost/container/small_vector.hpp>
@@ -48,8 +59,9 @@ namespace idas {
 template <operation_kind... Ops>
 struct op_list {};
 
-/// Live counts the stopping criterion sees. Exact in serial; in parallel, refreshed
-/// every `check_every` successes per worker, so a run may overshoot by a bounded amount.
+/// Live counts the stopping criterion sees (`faces` counts top cells: tets on tet meshes).
+/// Exact in serial; in parallel, refreshed every `check_every` successes per worker, so a
+/// run may overshoot by a bounded amount.
 struct progress {
     std::int64_t faces = 0, vertices = 0;
     std::uint64_t successes = 0;
@@ -90,6 +102,70 @@ struct op_list_traits<op_list<Ops...>> {
 
 template <class Op>
 inline constexpr bool is_vertex_op = std::is_same_v<Op, op::smooth_vertex>;
+template <class Op>
+inline constexpr bool is_face_op = std::is_same_v<Op, op::face_swap_23>;
+
+/// Tet meshes are told apart by their tet incidence; everything else is a triangle mesh.
+template <class M>
+concept has_tets = requires(const M& m, index_t i) {
+    { m.vertex_tets(i) } -> std::ranges::forward_range;
+    { m.tet_vertices(i) } -> std::convertible_to<tet_indices>;
+    { m.n_tets() } -> std::convertible_to<std::size_t>;
+};
+
+// The few places the executor looks at cells: the cells around a vertex, the vertices of
+// a cell, the cell a tuple names, how many cells are live, how many slots they use.
+template <class M>
+decltype(auto) cells_around(const M& m, index_t v) {
+    if constexpr (has_tets<M>)
+        return m.vertex_tets(v);
+    else
+        return m.vertex_faces(v);
+}
+template <class M>
+decltype(auto) cell_vertices(const M& m, index_t c) {
+    if constexpr (has_tets<M>)
+        return m.tet_vertices(c);
+    else
+        return m.face_vertices(c);
+}
+template <class M, class Tuple>
+index_t cell_of(const M&, const Tuple& t) noexcept {
+    if constexpr (has_tets<M>)
+        return t.tid;
+    else
+        return t.fid;
+}
+template <class M>
+std::size_t live_cells(const M& m) {
+    if constexpr (has_tets<M>)
+        return m.n_tets();
+    else
+        return m.n_faces();
+}
+template <class M>
+std::size_t cell_slots(const M& m) {
+    if constexpr (has_tets<M>)
+        return m.tet_slots();
+    else
+        return m.face_slots();
+}
+/// Whether the tuple's cell changed since the tuple was made, read while other workers
+/// may bump versions (only backends with relaxed version reads; see has_relaxed_versions).
+template <class M, class Tuple>
+bool version_moved_on(const M& m, const Tuple& t) noexcept {
+    if constexpr (has_tets<M>)
+        return m.connectivity().tet_version_relaxed(t.tid) != t.version;
+    else
+        return m.connectivity().face_version_relaxed(t.fid) != t.version;
+}
+template <class M>
+inline constexpr bool has_relaxed_versions = requires(const M& m, index_t i) {
+    m.connectivity().face_version_relaxed(i);
+}
+|| requires(const M& m, index_t i) {
+    m.connectivity().tet_version_relaxed(i);
+};
 
 /// Runs fn(0) ... fn(n - 1) concurrently on `threads` threads and waits for all.
 /// oneTBB normally; under ThreadSanitizer std::thread instead, because Debian's libtbb is
@@ -115,6 +191,26 @@ void run_workers(unsigned threads, unsigned n, Fn&& fn) {
 }
 } // namespace detail
 
+/// What the executor needs of a tetrahedral mesh (tet_mesh<B> models it).
+template <class M>
+concept tet_mesh_like = detail::has_tets<M> &&
+    requires(M m, const M cm, typename M::tuple t, index_t v, bool on) {
+    typename M::undo_log;
+    { cm.is_valid(t) } -> std::convertible_to<bool>;
+    { cm.vertex_slots() } -> std::convertible_to<index_t>;
+    { cm.tet_slots() } -> std::convertible_to<index_t>;
+    { cm.n_vertices() } -> std::convertible_to<std::size_t>;
+    { cm.vertex_alive(v) } -> std::convertible_to<bool>;
+    {cm.edge_vertices(t)};
+    {cm.face_vertices(t)};
+    { cm.position(v) } -> std::convertible_to<vec3>;
+    {m.set_slot_recycling(on)};
+};
+
+/// Meshes the executor runs on: triangle or tetrahedral.
+template <class M>
+concept executable_mesh = tri_mesh_like<M> || tet_mesh_like<M>;
+
 /// A spec the executor can run on Mesh: it lists its operations, each applicable.
 template <class Spec, class Mesh>
 concept schedule_spec = requires {
@@ -124,7 +220,7 @@ concept schedule_spec = requires {
     detail::op_list_traits<typename Spec::operations>{};
 };
 
-template <class Spec, tri_mesh_like Mesh, lock_policy Lock = lock::none,
+template <class Spec, executable_mesh Mesh, lock_policy Lock = lock::none,
           class Queue = queue::binary_heap, class Partition = partition::morton>
 requires schedule_spec<Spec, Mesh> && queue_policy<Queue, queue_entry<typename Mesh::tuple>> &&
     partition_policy<Partition, Mesh>
@@ -172,11 +268,16 @@ public:
     static void initial(Spec& spec, const Mesh& m, Push&& push) {
         if constexpr (requires { spec.initial(m, push); }) {
             spec.initial(m, push);
+        } else if constexpr (requires { spec.initial_at(m, index_t{}, push); }) {
+            for (index_t v = 0; v < m.vertex_slots(); ++v)
+                if (m.vertex_alive(v)) spec.initial_at(m, v, push);
         } else {
             ops::for_each([&](auto op) {
                 using Op = decltype(op);
                 if constexpr (detail::is_vertex_op<Op>)
                     m.for_each_vertex([&](const tuple& t) { push(Op{}, t); });
+                else if constexpr (detail::is_face_op<Op>)
+                    m.for_each_face([&](const tuple& t) { push(Op{}, t); });
                 else
                     m.for_each_edge([&](const tuple& t) { push(Op{}, t); });
             });
@@ -219,8 +320,8 @@ public:
     }
 
     static progress counts(const Mesh& m) {
-        return {static_cast<std::int64_t>(m.n_faces()), static_cast<std::int64_t>(m.n_vertices()),
-                0};
+        return {static_cast<std::int64_t>(detail::live_cells(m)),
+                static_cast<std::int64_t>(m.n_vertices()), 0};
     }
 
 private:
@@ -228,7 +329,7 @@ private:
     static run_report run_serial(Mesh& m, Spec& spec) {
         auto& ctx = thread_context<Mesh>();
         queue_type q;
-        q.reserve(3 * std::size_t(m.face_slots()));
+        q.reserve(3 * detail::cell_slots(m));
         run_report report;
         initial(spec, m, [&](auto op, const tuple& t) {
             using Op = decltype(op);
@@ -306,31 +407,46 @@ private:
 
     /// Claims the vertices an operation reads or writes: its own vertices first (so the
     /// tuple can be validated under lock), then every vertex of their stars. Writers of a
-    /// face hold all of its vertices, so holding a vertex freezes its star.
+    /// cell hold all of its vertices, so holding a vertex freezes its star. The operation's
+    /// vertices: the tuple's vertex for smoothing, its face's three for a 2-3 swap, its
+    /// edge's two otherwise.
     template <class Op>
     static claim_result claim(Spec& spec, const Mesh& m, const tuple& t, Lock& locks,
                               std::uint32_t me, held_vertices& held) {
         auto take = [&](index_t v) {
-            if (std::find(held.begin(), held.end(), v) != held.end()) return true;
-            if (!locks.try_lock(v, me)) return false;
-            held.push_back(v);
-            return true;
+            if constexpr (detail::has_tets<Mesh> && requires { locks.try_acquire(v, me); }) {
+                // Tet stars overlap a lot (hundreds of claims for a few dozen vertices):
+                // the lock word itself says whether v is already ours.
+                const int r = locks.try_acquire(v, me);
+                if (r > 0) held.push_back(v);
+                return r >= 0;
+            } else {
+                if (std::find(held.begin(), held.end(), v) != held.end()) return true;
+                if (!locks.try_lock(v, me)) return false;
+                held.push_back(v);
+                return true;
+            }
         };
         if (t.vid >= m.vertex_slots() || !take(t.vid)) return claim_result::busy;
         bool in_star = false;
-        for (index_t f : m.vertex_faces(t.vid)) in_star |= f == t.fid;
+        for (index_t f : detail::cells_around(m, t.vid)) in_star |= f == detail::cell_of(m, t);
         if (!in_star || !m.is_valid(t)) return claim_result::stale;
         if constexpr (requires { spec.lock_region(Op{}, m, t, take); }) {
             return spec.lock_region(Op{}, m, t, take) ? claim_result::ok : claim_result::busy;
         } else {
-            index_t seeds[2] = {t.vid, t.vid};
-            if constexpr (!detail::is_vertex_op<Op>) {
-                seeds[1] = m.edge_vertices(t).second;
-                if (!take(seeds[1])) return claim_result::busy;
+            index_t seeds[3] = {t.vid, t.vid, t.vid};
+            std::size_t n_seeds = 1;
+            if constexpr (detail::is_face_op<Op>) {
+                const auto fv = m.face_vertices(t);
+                seeds[1] = fv[1], seeds[2] = fv[2], n_seeds = 3;
+            } else if constexpr (!detail::is_vertex_op<Op>) {
+                seeds[1] = m.edge_vertices(t).second, n_seeds = 2;
             }
-            for (index_t s : seeds)
-                for (index_t f : m.vertex_faces(s))
-                    for (index_t w : m.face_vertices(f))
+            for (std::size_t i = 1; i < n_seeds; ++i)
+                if (!take(seeds[i])) return claim_result::busy;
+            for (std::size_t i = 0; i < n_seeds; ++i)
+                for (index_t f : detail::cells_around(m, seeds[i]))
+                    for (index_t w : detail::cell_vertices(m, f))
                         if (!take(w)) return claim_result::busy;
             return claim_result::ok;
         }
@@ -360,9 +476,14 @@ private:
             // Room for the growth the spec expects (default: the mesh may double), dealt
             // out to the workers; an operation that does not fit waits for the serial pass.
             index_t extra_vertices = std::max<index_t>(4096, m.vertex_slots());
-            if constexpr (requires { spec.parallel_growth(m); })
-                extra_vertices = spec.parallel_growth(m);
-            m.begin_parallel(P, extra_vertices, 2 * extra_vertices);
+            index_t extra_cells = 2 * extra_vertices;
+            if constexpr (requires { spec.parallel_growth(m).first; }) {
+                const auto [v, c] = spec.parallel_growth(m);
+                extra_vertices = static_cast<index_t>(v), extra_cells = static_cast<index_t>(c);
+            } else if constexpr (requires { spec.parallel_growth(m); }) {
+                extra_vertices = spec.parallel_growth(m), extra_cells = 2 * extra_vertices;
+            }
+            m.begin_parallel(P, extra_vertices, extra_cells);
         }
         Lock locks(m.vertex_slots()); // after growth: new vertices get lock words too
         std::vector<std::unique_ptr<worker_state>> workers;
@@ -371,7 +492,21 @@ private:
         // Initial entries go to the part of their tuple's vertex.
         const std::vector<std::uint32_t> part = Partition::assign(m, P);
         std::uint64_t initial_count = 0;
-        {
+        if constexpr (requires { spec.initial_at(m, index_t{}, [](auto, const tuple&) {}); }) {
+            // Each worker finds the entries of its own part's vertices.
+            std::vector<std::uint64_t> found(P, 0);
+            detail::run_workers(T, P, [&](unsigned w) {
+                auto& q = workers[w]->q;
+                auto push = [&](auto op, const tuple& t) {
+                    using Op = decltype(op);
+                    q.push({priority_of<Op>(spec, m, t), t, Op::id, 0});
+                    ++found[w];
+                };
+                for (index_t v = 0; v < m.vertex_slots(); ++v)
+                    if (part[v] == w && m.vertex_alive(v)) spec.initial_at(m, v, push);
+            });
+            for (auto n : found) initial_count += n;
+        } else {
             std::vector<entry> all;
             initial(spec, m, [&](auto op, const tuple& t) {
                 using Op = decltype(op);
@@ -407,17 +542,15 @@ private:
             return p;
         };
 
-        // Each worker purges its own queue of entries whose face version moved on, as the
+        // Each worker purges its own queue of entries whose cell version moved on, as the
         // serial loop does. Versions may be bumped concurrently by other workers, so they
         // are read with relaxed atomics; a matching version keeps the entry (conservative).
         auto purge_if_bloated = [&](worker_state& me) {
-            if constexpr (requires(const Mesh& cm) { cm.connectivity().face_version_relaxed(index_t{}); }) {
+            if constexpr (detail::has_relaxed_versions<Mesh>) {
                 tbb::spin_mutex::scoped_lock lk(me.mutex);
                 if (me.q.size() <= me.next_purge) return;
                 const std::size_t before = me.q.size();
-                me.q.erase_if([&](const entry& x) {
-                    return m.connectivity().face_version_relaxed(x.tuple.fid) != x.tuple.version;
-                });
+                me.q.erase_if([&](const entry& x) { return detail::version_moved_on(m, x.tuple); });
                 me.report.purged += before - me.q.size();
                 me.next_purge = me.q.size() + me.q.size() / 2 + 4096;
             }
@@ -511,7 +644,8 @@ private:
                                        dverts = me.ctx.vertex_delta - vd;
                     const std::int64_t delta = pack(dfaces, dverts);
                     progress now = unpack(live.fetch_add(delta, std::memory_order_relaxed) + delta);
-                    me.successes.store(me.report.succeeded, std::memory_order_relaxed); // owner writes only
+                    me.successes.store(me.report.succeeded,
+                                       std::memory_order_relaxed); // owner writes only
                     if (goal_reached(spec, now)) stop.store(true, std::memory_order_relaxed);
                     if (++since_check >= o.check_every) {
                         since_check = 0;
@@ -530,8 +664,8 @@ private:
         report.pushed = initial_count;
         for (auto& w : workers) {
             auto& r = w->report;
-            report.pushed += r.pushed, report.popped += r.popped, report.purged += r.purged, report.stale += r.stale,
-                report.skipped += r.skipped;
+            report.pushed += r.pushed, report.popped += r.popped, report.purged += r.purged,
+                report.stale += r.stale, report.skipped += r.skipped;
             report.attempted += r.attempted, report.succeeded += r.succeeded,
                 report.refused += r.refused;
             report.lock_failures += r.lock_failures,

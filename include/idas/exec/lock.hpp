@@ -48,6 +48,16 @@ public:
             return true;
         return expected == me;
     }
+    /// Like try_lock, but tells a fresh claim (1) from one `me` already held (0); -1 if
+    /// another worker holds v. Lets callers keep their list of held vertices duplicate-free
+    /// without searching it.
+    int try_acquire(index_t v, std::uint32_t me) noexcept {
+        std::uint32_t expected = 0;
+        if (owner_[v].compare_exchange_strong(expected, me, std::memory_order_acquire,
+                                              std::memory_order_relaxed))
+            return 1;
+        return expected == me ? 0 : -1;
+    }
     void unlock(index_t v, std::uint32_t) noexcept {
         owner_[v].store(0, std::memory_order_release);
     }

@@ -21,6 +21,7 @@
 #include <cstring>
 #include <optional>
 #include <string>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -453,6 +454,27 @@ public:
     void rollback(undo_log& log, std::size_t mark) { conn_.rollback(log, mark); }
     /// See indexed_tet::set_slot_recycling.
     void set_slot_recycling(bool on) noexcept { conn_.set_slot_recycling(on); }
+
+    /// Whether the backend can hand out new slots to concurrent workers.
+    static constexpr bool parallel_growth = requires(Backend b, unsigned w, index_t n) {
+        b.begin_parallel(w, n, n);
+        b.end_parallel();
+        { b.has_room(n, n) } -> std::convertible_to<bool>;
+    };
+    /// Grows every array once so `workers` workers can add up to the given numbers of
+    /// vertices and tets concurrently (see the backend's begin_parallel).
+    void begin_parallel(unsigned workers, index_t extra_vertices,
+                        index_t extra_tets) requires parallel_growth {
+        conn_.begin_parallel(workers, extra_vertices, extra_tets);
+        grow_attributes();
+    }
+    void end_parallel() requires parallel_growth { conn_.end_parallel(); }
+    bool has_room(index_t vertices, index_t tets) const noexcept {
+        if constexpr (parallel_growth)
+            return conn_.has_room(vertices, tets);
+        else
+            return true;
+    }
     void reserve(index_t vertices, index_t tets) {
         conn_.reserve(vertices, tets);
         attrs_.ensure(simplex_kind::vertex, vertices);
@@ -557,7 +579,10 @@ private:
                 faces.push_back({k, t, odd});
             }
         std::sort(faces.begin(), faces.end(), [](const face_rec& x, const face_rec& y) {
-            return x.key != y.key ? x.key < y.key : x.tet < y.tet;
+            // Element-wise (std::array's operators call memcmp, measured at a third of
+            // the construction time of a million-point Delaunay mesh).
+            return std::tie(x.key[0], x.key[1], x.key[2], x.tet) <
+                   std::tie(y.key[0], y.key[1], y.key[2], y.tet);
         });
         const auto face_name = [](const tri_indices& k) {
             return "face (" + std::to_string(k[0]) + ", " + std::to_string(k[1]) + ", " +
@@ -565,7 +590,10 @@ private:
         };
         for (std::size_t i = 0; i < faces.size();) {
             std::size_t j = i + 1;
-            while (j < faces.size() && faces[j].key == faces[i].key) ++j;
+            const auto same = [](const tri_indices& x, const tri_indices& y) {
+                return x[0] == y[0] && x[1] == y[1] && x[2] == y[2];
+            };
+            while (j < faces.size() && same(faces[j].key, faces[i].key)) ++j;
             if (j - i > 2)
                 throw input_error(face_name(faces[i].key) + " is shared by " +
                                   std::to_string(j - i) + " tets (" + std::to_string(faces[i].tet) +

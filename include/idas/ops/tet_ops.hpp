@@ -519,6 +519,29 @@ std::optional<op_result<tet_tuple>> edge_removal(tet_mesh<B>& m, const tet_tuple
     });
 }
 
+// The tet-only kinds map to their functions by overload, as the triangle core's kinds do
+// (ops/tri_ops.hpp), so the executor dispatches on the kind type at compile time.
+template <class B, class Spec>
+auto apply(op::face_swap_23, tet_mesh<B>& m, const tet_tuple& t, Spec& s,
+           op_context<tet_mesh<B>>& c) {
+    return face_swap_23(m, t, s, c);
+}
+template <class B, class Spec>
+auto apply(op::edge_swap_32, tet_mesh<B>& m, const tet_tuple& t, Spec& s,
+           op_context<tet_mesh<B>>& c) {
+    return edge_swap_32(m, t, s, c);
+}
+template <class B, class Spec>
+auto apply(op::edge_swap_44, tet_mesh<B>& m, const tet_tuple& t, Spec& s,
+           op_context<tet_mesh<B>>& c) {
+    return edge_swap_44(m, t, s, c);
+}
+template <class B, class Spec>
+auto apply(op::edge_removal, tet_mesh<B>& m, const tet_tuple& t, Spec& s,
+           op_context<tet_mesh<B>>& c) {
+    return edge_removal(m, t, s, c);
+}
+
 // Convenience overloads that use the calling thread's default context.
 template <class B, class Spec = no_spec>
 auto split_edge(tet_mesh<B>& m, const tet_tuple& t, Spec&& spec = {}) {

@@ -9,6 +9,7 @@
 #include <boost/container/small_vector.hpp>
 
 #include <algorithm>
+#include <atomic>
 #include <cassert>
 #include <span>
 #include <vector>
@@ -30,7 +31,9 @@ public:
             vt_insert,
             vt_erase,
             free_tet_pushed,
-            free_tet_popped
+            free_tet_popped,
+            vertex_from_pool,
+            tet_from_pool
         };
         what kind;
         index_t a = 0, b = 0, c = 0; // tet or vertex; vt: vertex, tet, position
@@ -64,6 +67,13 @@ public:
     bool tet_alive(index_t t) const noexcept { return tv_[t][0] != invalid_index; }
     const tet_indices& tet_vertices(index_t t) const noexcept { return tv_[t]; }
     version_t tet_version(index_t t) const noexcept { return version_[t]; }
+    /// A version read that may race with the tet's owner bumping it: parallel workers use
+    /// it to purge stale entries from their queues without holding the tet's locks.
+    /// (Versions are written through relaxed atomics, which cost nothing extra on x86.)
+    version_t tet_version_relaxed(index_t t) const noexcept {
+        return std::atomic_ref<version_t>(const_cast<version_t&>(version_[t]))
+            .load(std::memory_order_relaxed);
+    }
     std::span<const index_t> vertex_tets(index_t v) const noexcept {
         return {vt_[v].data(), vt_[v].size()};
     }
@@ -96,11 +106,63 @@ public:
     /// reclaims them later.
     void set_slot_recycling(bool on) noexcept { recycle_ = on; }
 
+    /// Prepares for `workers` concurrent workers that may add simplices: the arrays grow
+    /// once, here, by the given number of dead slots, dealt out to per-worker pools. A
+    /// worker's add_* then takes from its own pool (detail::worker_index): no reallocation,
+    /// no atomics. Recycling is off until end_parallel.
+    void begin_parallel(unsigned workers, index_t extra_vertices, index_t extra_tets) {
+        recycle_ = false;
+        pools_.assign(workers, {});
+        const index_t v0 = vertex_slots(), t0 = tet_slots();
+        vt_.resize(std::size_t(v0) + extra_vertices);
+        valive_.resize(std::size_t(v0) + extra_vertices, 0);
+        tv_.resize(std::size_t(t0) + extra_tets,
+                   {invalid_index, invalid_index, invalid_index, invalid_index});
+        version_.resize(std::size_t(t0) + extra_tets, 0);
+        // Blocks, pushed in reverse so each worker hands out ascending slots.
+        for (unsigned w = 0; w < workers; ++w) {
+            auto& p = pools_[w];
+            const auto cut = [&](index_t base, index_t extra, unsigned k) {
+                return base + index_t(std::size_t(extra) * k / workers);
+            };
+            for (index_t v = cut(v0, extra_vertices, w + 1); v-- > cut(v0, extra_vertices, w);)
+                p.vertices.push_back(v);
+            for (index_t t = cut(t0, extra_tets, w + 1); t-- > cut(t0, extra_tets, w);)
+                p.tets.push_back(t);
+        }
+        parallel_ = true;
+    }
+    /// Unused pool slots become ordinary recyclable dead slots again.
+    void end_parallel() {
+        parallel_ = false;
+        recycle_ = true;
+        for (auto& p : pools_) {
+            free_vertices_.insert(free_vertices_.end(), p.vertices.rbegin(), p.vertices.rend());
+            free_tets_.insert(free_tets_.end(), p.tets.rbegin(), p.tets.rend());
+        }
+        pools_.clear();
+    }
+    /// Whether this worker's pool can serve an operation adding these many simplices.
+    bool has_room(index_t vertices, index_t tets) const noexcept {
+        if (!parallel_) return true;
+        const auto& p = pools_[detail::worker_index];
+        return p.vertices.size() >= vertices && p.tets.size() >= tets;
+    }
+
     // ---- journaled mutation ----
 
     // Dead slots are recycled newest first, so long runs keep the arrays at a steady
     // size. A recycled tet slot keeps counting versions, so old tuples to it stay stale.
     index_t add_vertex(undo_log& log) {
+        if (parallel_) {
+            auto& pool = pools_[detail::worker_index].vertices;
+            assert(!pool.empty());
+            const index_t v = pool.back();
+            pool.pop_back();
+            valive_[v] = 1;
+            log.push_back({undo_entry::what::vertex_from_pool, v});
+            return v;
+        }
         if (recycle_ && !free_vertices_.empty()) {
             const index_t v = free_vertices_.back();
             free_vertices_.pop_back();
@@ -123,13 +185,22 @@ public:
     }
     index_t add_tet(const tet_indices& t, undo_log& log) {
         index_t id;
-        if (recycle_ && !free_tets_.empty()) {
+        if (parallel_) {
+            auto& pool = pools_[detail::worker_index].tets;
+            assert(!pool.empty());
+            id = pool.back();
+            pool.pop_back();
+            log.push_back({undo_entry::what::tet_from_pool, id});
+            save_tet(id, log);
+            tv_[id] = t;
+            bump_version(id);
+        } else if (recycle_ && !free_tets_.empty()) {
             id = free_tets_.back();
             free_tets_.pop_back();
             log.push_back({undo_entry::what::free_tet_popped, id});
             save_tet(id, log);
             tv_[id] = t;
-            ++version_[id];
+            bump_version(id);
         } else {
             tv_.push_back(t);
             version_.push_back(0);
@@ -143,7 +214,7 @@ public:
         save_tet(t, log);
         for (index_t v : tv_[t]) vt_erase(v, t, log);
         tv_[t] = {invalid_index, invalid_index, invalid_index, invalid_index};
-        ++version_[t];
+        bump_version(t);
         if (recycle_) {
             free_tets_.push_back(t);
             log.push_back({undo_entry::what::free_tet_pushed, t});
@@ -158,12 +229,12 @@ public:
         for (index_t v : nv)
             if (!contains(old, v)) vt_insert(v, t, log);
         tv_[t] = nv;
-        ++version_[t];
+        bump_version(t);
     }
     /// Marks a tet changed (a vertex moved) so tuples made before go stale.
     void touch_tet(index_t t, undo_log& log) {
         save_tet(t, log);
-        ++version_[t];
+        bump_version(t);
     }
 
     void rollback(undo_log& log, std::size_t mark) {
@@ -173,7 +244,7 @@ public:
             log.pop_back();
             switch (e.kind) {
             case w::tet_set:
-                tv_[e.a] = e.verts, version_[e.a] = e.version;
+                tv_[e.a] = e.verts, set_version(e.a, e.version);
                 break;
             case w::tet_added:
                 assert(e.a + 1 == tv_.size());
@@ -200,6 +271,13 @@ public:
             case w::free_tet_popped:
                 free_tets_.push_back(e.a);
                 break;
+            case w::vertex_from_pool:
+                valive_[e.a] = 0;
+                pools_[detail::worker_index].vertices.push_back(e.a);
+                break;
+            case w::tet_from_pool:
+                pools_[detail::worker_index].tets.push_back(e.a);
+                break;
             case w::vt_insert:
                 assert(!vt_[e.a].empty() && vt_[e.a].back() == e.b);
                 vt_[e.a].pop_back();
@@ -221,6 +299,10 @@ private:
     static bool contains(const tet_indices& t, index_t v) noexcept {
         return t[0] == v || t[1] == v || t[2] == v || t[3] == v;
     }
+    void set_version(index_t t, version_t v) noexcept {
+        std::atomic_ref<version_t>(version_[t]).store(v, std::memory_order_relaxed);
+    }
+    void bump_version(index_t t) noexcept { set_version(t, version_[t] + 1); }
     void save_tet(index_t t, undo_log& log) {
         log.push_back({undo_entry::what::tet_set, t, 0, 0, tv_[t], version_[t]});
     }
@@ -243,6 +325,12 @@ private:
     std::vector<std::uint8_t> valive_;
     std::vector<index_t> free_tets_, free_vertices_;
     bool recycle_ = true;
+    struct slot_pool {
+        std::vector<index_t> vertices, tets;
+        friend bool operator==(const slot_pool&, const slot_pool&) = default;
+    };
+    std::vector<slot_pool> pools_; // per parallel worker, between begin_ and end_parallel
+    bool parallel_ = false;
 };
 
 static_assert(tet_connectivity<indexed_tet>);

@@ -1,0 +1,54 @@
+// Harmonic triangulations on the parallel executor: valid under contention (8 workers on
+// the machine's cores), energy not higher, hull and vertices kept. Needs CGAL for the
+// Delaunay input.
+#if defined(IDAS_HAS_CGAL)
+#include "../harmonic_support.hpp"
+
+#include <idas/io/points.hpp>
+
+using namespace idas;
+using namespace idas::algorithms;
+
+TEST_CASE("harmonic triangulation in parallel: 8 threads, both modes") {
+    const auto points = io::gaussian_points(10000, 11);
+    for (const auto mode : {harmonic_mode::reduced, harmonic_mode::complete}) {
+        CAPTURE(int(mode));
+        auto m = test::delaunay_mesh(points);
+        harmonic_options o;
+        o.mode = mode;
+        o.exec.threads = 8;
+        o.exec.max_retry = 2; // more entries take the final serial pass too
+        test::check_run(m, o);
+        // Within reach of the serial result (the order of flips differs).
+        auto s = test::delaunay_mesh(points);
+        o.exec.threads = 1;
+        harmonic_triangulation<>::run(s, o);
+        CHECK(harmonic_statistics(m).mean_index ==
+              doctest::Approx(harmonic_statistics(s).mean_index).epsilon(0.02));
+    }
+}
+
+namespace {
+/// A tiny pool for new tets, so 2-3 swaps run out of slots and go to the serial pass.
+struct small_pool : harmonic_flip_spec<harmonic_mode::complete> {
+    template <class Mesh>
+    std::pair<index_t, index_t> parallel_growth(const Mesh&) const {
+        return {0, 64};
+    }
+};
+} // namespace
+
+TEST_CASE("harmonic triangulation in parallel: 2-3 growth beyond the slot pools") {
+    auto m = test::delaunay_mesh(io::gaussian_points(5000, 5));
+    const auto before = harmonic_statistics(m);
+    small_pool spec;
+    const auto r = executor<small_pool, tet_mesh<>, lock::vertex_try_lock, queue::fifo>::run(
+        m, spec, {.threads = 4});
+    CHECK(r.succeeded > 0);
+    CHECK(r.deferred_to_serial > 0);
+    CHECK(find_inconsistency(m, true) == std::nullopt);
+    CHECK(test::inverted_or_flat_tets(m) == 0);
+    CHECK(harmonic_statistics(m).total_energy < before.total_energy);
+}
+
+#endif // IDAS_HAS_CGAL
