@@ -166,8 +166,9 @@ def before_after(before, after):
     out = ["### Before and after the quality fix", "",
            "idas serial without envelope; \"before\" is the spec before the fix (smoothing "
            "and flipping entries went stale when a neighbour changed, so about half the "
-           "vertices were never smoothed and flips were never revisited), run in the same "
-           "session as \"after\".", "",
+           "vertices were never smoothed and flips were never revisited; collapses merged at "
+           "the midpoint): bench_remeshing built with isotropic_remeshing.hpp of commit "
+           "cfe2e21, passed as --before-bin and run interleaved with \"after\".", "",
            "| input | build | seconds | output faces | valence-6 | min angle | mean min angle | "
            "faces < 20° | Hausdorff out->in | Hausdorff sym. |",
            "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
