@@ -33,7 +33,7 @@ namespace {
 struct small_pool : harmonic_flip_spec<harmonic_mode::complete> {
     template <class Mesh>
     std::pair<index_t, index_t> parallel_growth(const Mesh&) const {
-        return {0, 64};
+        return {0, 8};
     }
 };
 } // namespace

@@ -52,6 +52,12 @@ public:
     /// another worker holds v. Lets callers keep their list of held vertices duplicate-free
     /// without searching it.
     int try_acquire(index_t v, std::uint32_t me) noexcept {
+        // A plain load first: re-claims of held vertices (most claims of a tet star) and
+        // claims of busy ones then cost no locked instruction. Only `me` writes `me`, so
+        // seeing it is proof; a stale 0 just lets the CAS decide.
+        const std::uint32_t seen = owner_[v].load(std::memory_order_relaxed);
+        if (seen == me) return 0;
+        if (seen != 0) return -1;
         std::uint32_t expected = 0;
         if (owner_[v].compare_exchange_strong(expected, me, std::memory_order_acquire,
                                               std::memory_order_relaxed))
