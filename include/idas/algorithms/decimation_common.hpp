@@ -13,21 +13,19 @@ namespace idas::algorithms {
 /// After a collapse into a, every edge of a's new star changed: the spokes (a,
 /// x) and the rim edges (x, y) opposite a. Each is pushed once.
 template <class Op, class Mesh, class Push>
-void push_star_edges(const Mesh &m, const op_result<typename Mesh::tuple> &r,
-                     Push &push) {
-  const bool open_fan = m.is_boundary_vertex(r.anchor.vid);
-  for (const auto &spoke : r.cells) {
-    push(Op{}, spoke); // (a, next)
-    push(Op{},
-         m.switch_edge(m.switch_vertex(spoke))); // the rim edge opposite a
-    // In an open fan one spoke (prev, a) is on the boundary and in no other
-    // cell.
-    if (open_fan) {
-      const auto prev = m.switch_edge(spoke);
-      if (m.is_boundary_edge(prev))
-        push(Op{}, prev);
+void push_star_edges(const Mesh& m, const op_result<typename Mesh::tuple>& r, Push& push) {
+    const bool open_fan = m.is_boundary_vertex(r.anchor.vid);
+    for (const auto& spoke : r.cells) {
+        push(Op{}, spoke); // (a, next)
+        push(Op{},
+             m.switch_edge(m.switch_vertex(spoke))); // the rim edge opposite a
+        // In an open fan one spoke (prev, a) is on the boundary and in no other
+        // cell.
+        if (open_fan) {
+            const auto prev = m.switch_edge(spoke);
+            if (m.is_boundary_edge(prev)) push(Op{}, prev);
+        }
     }
-  }
 }
 
 /// Edges an invariant refused, remembered by their endpoints: a later collapse
@@ -36,22 +34,21 @@ void push_star_edges(const Mesh &m, const op_result<typename Mesh::tuple> &r,
 /// these retries). Written by the worker that holds both endpoints, so safe in
 /// parallel.
 struct refusal_memory {
-  std::vector<std::uint8_t> refused_at;
+    std::vector<std::uint8_t> refused_at;
 
-  template <class Mesh> void forget_refusals(const Mesh &m) {
-    refused_at.assign(m.vertex_slots(), 0);
-  }
-  template <class Mesh>
-  void refused(op::collapse_edge, const Mesh &m,
-               const typename Mesh::tuple &t) {
-    const auto [a, b] = m.edge_vertices(t);
-    refused_at[a] = refused_at[b] = 1;
-  }
-  bool maybe_refused(std::pair<index_t, index_t> e) const noexcept {
-    const auto n = refused_at.size();
-    return e.first < n && e.second < n && refused_at[e.first] &&
-           refused_at[e.second];
-  }
+    template <class Mesh>
+    void forget_refusals(const Mesh& m) {
+        refused_at.assign(m.vertex_slots(), 0);
+    }
+    template <class Mesh>
+    void refused(op::collapse_edge, const Mesh& m, const typename Mesh::tuple& t) {
+        const auto [a, b] = m.edge_vertices(t);
+        refused_at[a] = refused_at[b] = 1;
+    }
+    bool maybe_refused(std::pair<index_t, index_t> e) const noexcept {
+        const auto n = refused_at.size();
+        return e.first < n && e.second < n && refused_at[e.first] && refused_at[e.second];
+    }
 };
 
 /// Decimation queues name every edge by one canonical tuple: in the face where
@@ -62,20 +59,19 @@ struct refusal_memory {
 /// quadrics are untouched), and need not be pushed again. That halves the rim
 /// pushes, which were nine tenths stale.
 template <class Mesh>
-bool runs_upwards(const Mesh &m, const typename Mesh::tuple &t) {
-  const auto &fv = m.face_vertices(t.fid);
-  return fv[(t.local_edge + 1) % 3] < fv[(t.local_edge + 2) % 3];
+bool runs_upwards(const Mesh& m, const typename Mesh::tuple& t) {
+    const auto& fv = m.face_vertices(t.fid);
+    return fv[(t.local_edge + 1) % 3] < fv[(t.local_edge + 2) % 3];
 }
 
 /// Every edge once, by its canonical tuple (the initial queue of a decimation).
 template <class Op, class Mesh, class Push>
-void push_all_edges(const Mesh &m, Push &push) {
-  m.for_each_edge([&](const typename Mesh::tuple &t) {
-    if (runs_upwards(m, t))
-      return push(Op{}, t);
-    const auto g = m.switch_face(t);
-    push(Op{}, g ? *g : t);
-  });
+void push_all_edges(const Mesh& m, Push& push) {
+    m.for_each_edge([&](const typename Mesh::tuple& t) {
+        if (runs_upwards(m, t)) return push(Op{}, t);
+        const auto g = m.switch_face(t);
+        push(Op{}, g ? *g : t);
+    });
 }
 
 /// After a collapse into a: every spoke (a, x), whose priority changed, and the
@@ -85,39 +81,50 @@ void push_all_edges(const Mesh &m, Push &push) {
 /// no face across an edge need be looked up, except to tell boundary edges
 /// apart.
 template <class Op, class Mesh, class Push>
-void push_changed_edges(const Mesh &m, const op_result<typename Mesh::tuple> &r,
-                        Push &push, const refusal_memory &refusals) {
-  const bool open_fan = m.is_boundary_vertex(r.anchor.vid);
-  for (const auto &spoke : r.cells) {
-    const auto back = m.switch_edge(spoke);                 // (prev, a)
-    const auto rim = m.switch_edge(m.switch_vertex(spoke)); // (next, prev)
-    // Each interior spoke is (a, next) in one cell and (prev, a) in the other,
-    // and runs upwards in just one of them; a boundary spoke is in one cell
-    // only.
-    for (const auto &e : {spoke, back})
-      if (runs_upwards(m, e) || (open_fan && m.is_boundary_edge(e)))
-        push(Op{}, e);
-    if (runs_upwards(m, rim) || m.is_boundary_edge(rim)) {
-      push(Op{}, rim);
-    } else if (refusals.maybe_refused(m.edge_vertices(rim))) {
-      // Its queued entry may be gone (refused earlier); its neighbourhood
-      // changed, so it may pass now. A duplicate, if the entry is still queued,
-      // is harmless.
-      push(Op{}, *m.switch_face(rim));
+void push_changed_edges(const Mesh& m, const op_result<typename Mesh::tuple>& r, Push& push,
+                        const refusal_memory& refusals) {
+    const bool open_fan = m.is_boundary_vertex(r.anchor.vid);
+    for (const auto& spoke : r.cells) {
+        const auto back = m.switch_edge(spoke);                 // (prev, a)
+        const auto rim = m.switch_edge(m.switch_vertex(spoke)); // (next, prev)
+        // Each interior spoke is (a, next) in one cell and (prev, a) in the other,
+        // and runs upwards in just one of them; a boundary spoke is in one cell
+        // only.
+        for (const auto& e : {spoke, back})
+            if (runs_upwards(m, e) || (open_fan && m.is_boundary_edge(e))) push(Op{}, e);
+        if (runs_upwards(m, rim) || m.is_boundary_edge(rim)) {
+            push(Op{}, rim);
+        } else if (refusals.maybe_refused(m.edge_vertices(rim))) {
+            // Its queued entry may be gone (refused earlier); its neighbourhood
+            // changed, so it may pass now. A duplicate, if the entry is still queued,
+            // is harmless.
+            push(Op{}, *m.switch_face(rim));
+        }
     }
-  }
 }
 
 /// Stops a decimation once the live face count reaches the target.
 struct face_target {
-  std::int64_t target_faces = 0;
-  bool stop(const progress &p) const noexcept {
-    return p.faces <= target_faces;
-  }
-  /// A collapse removes two faces (one on the boundary).
-  std::int64_t remaining(const progress &p) const noexcept {
-    return (p.faces - target_faces) / 2;
-  }
+    std::int64_t target_faces = 0;
+    bool stop(const progress& p) const noexcept { return p.faces <= target_faces; }
+    /// A collapse removes two faces (one on the boundary).
+    std::int64_t remaining(const progress& p) const noexcept {
+        return (p.faces - target_faces) / 2;
+    }
+};
+
+/// The schedule both decimations share: every edge first; after a collapse, the edges it
+/// changed; stop at the target face count.
+struct collapse_schedule : face_target, refusal_memory {
+    template <class Mesh, class Push>
+    void initial(const Mesh& m, Push& push) const {
+        push_all_edges<op::collapse_edge>(m, push);
+    }
+    template <class Mesh, class Push>
+    void renew(op::collapse_edge, const Mesh& m, const op_result<typename Mesh::tuple>& r,
+               Push& push) const {
+        push_changed_edges<op::collapse_edge>(m, r, push, *this);
+    }
 };
 
 } // namespace idas::algorithms

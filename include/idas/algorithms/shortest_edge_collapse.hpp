@@ -17,60 +17,48 @@
 namespace idas::algorithms {
 
 template <bool NoNormalFlip = true>
-struct shortest_edge_collapse_spec : face_target, refusal_memory {
-  using operations = op_list<op::collapse_edge>;
+struct shortest_edge_collapse_spec : collapse_schedule {
+    using operations = op_list<op::collapse_edge>;
 
-  template <class Mesh> void prepare(Mesh &m) { forget_refusals(m); }
+    template <class Mesh>
+    void prepare(Mesh& m) {
+        forget_refusals(m);
+    }
 
-  template <class Mesh>
-  double priority(op::collapse_edge, const Mesh &m,
-                  const typename Mesh::tuple &t) const {
-    const auto [a, b] = m.edge_vertices(t);
-    return squared_norm(m.position(a) - m.position(b));
-  }
+    template <class Mesh>
+    double priority(op::collapse_edge, const Mesh& m, const typename Mesh::tuple& t) const {
+        const auto [a, b] = m.edge_vertices(t);
+        return squared_norm(m.position(a) - m.position(b));
+    }
 
-  template <class Mesh>
-  std::optional<vec3> before(op::collapse_edge, const Mesh &m,
-                             const typename Mesh::tuple &t) const {
-    const auto [a, b] = m.edge_vertices(t);
-    const bool on_a = m.is_boundary_vertex(a), on_b = m.is_boundary_vertex(b);
-    if (on_a != on_b)
-      return m.position(on_a ? a : b); // keep the boundary where it is
-    return (m.position(a) + m.position(b)) * 0.5;
-  }
+    template <class Mesh>
+    std::optional<vec3> before(op::collapse_edge, const Mesh& m,
+                               const typename Mesh::tuple& t) const {
+        const auto [a, b] = m.edge_vertices(t);
+        const bool on_a = m.is_boundary_vertex(a), on_b = m.is_boundary_vertex(b);
+        if (on_a != on_b) return m.position(on_a ? a : b); // keep the boundary where it is
+        return (m.position(a) + m.position(b)) * 0.5;
+    }
 
-  template <class Mesh>
-  bool after(op::collapse_edge, Mesh &m,
-             const op_result<typename Mesh::tuple> &r, const vec3 &p) const {
-    m.positions().set(r.anchor.vid, p);
-    return true;
-  }
+    template <class Mesh>
+    bool after(op::collapse_edge, Mesh& m, const op_result<typename Mesh::tuple>& r,
+               const vec3& p) const {
+        m.positions().set(r.anchor.vid, p);
+        return true;
+    }
 
-  auto invariants() const {
-    if constexpr (NoNormalFlip)
-      return invariant_set<no_normal_flip>{};
-    else
-      return invariant_set<>{};
-  }
-
-  template <class Mesh, class Push>
-  void initial(const Mesh &m, Push &push) const {
-    push_all_edges<op::collapse_edge>(m, push);
-  }
-
-  template <class Mesh, class Push>
-  void renew(op::collapse_edge, const Mesh &m,
-             const op_result<typename Mesh::tuple> &r, Push &push) const {
-    push_changed_edges<op::collapse_edge>(m, r, push, *this);
-  }
+    auto invariants() const {
+        if constexpr (NoNormalFlip)
+            return invariant_set<no_normal_flip>{};
+        else
+            return invariant_set<>{};
+    }
 };
 
 /// The algorithm as a type: spec + data structure + lock + queue + partition.
-template <bool NoNormalFlip = true, class Mesh = tri_mesh<>,
-          class Lock = lock::vertex_try_lock, class Queue = queue::dary_heap<4>,
-          class Partition = partition::morton>
+template <bool NoNormalFlip = true, class Mesh = tri_mesh<>, class Lock = lock::vertex_try_lock,
+          class Queue = queue::dary_heap<4>, class Partition = partition::morton>
 using shortest_edge_collapse =
-    executor<shortest_edge_collapse_spec<NoNormalFlip>, Mesh, Lock, Queue,
-             Partition>;
+    executor<shortest_edge_collapse_spec<NoNormalFlip>, Mesh, Lock, Queue, Partition>;
 
 } // namespace idas::algorithms
