@@ -601,12 +601,14 @@ struct with_progress_bar : Base {
                                 .count();
             std::int64_t due = next_draw_ms.load(std::memory_order_relaxed);
             if (ms >= due && next_draw_ms.compare_exchange_strong(due, ms + 100)) {
-                const double done = double(start_faces - p.faces) /
-                                    double(std::max<std::int64_t>(1, start_faces - this->target_faces));
+                const double done =
+                    double(start_faces - p.faces) /
+                    double(std::max<std::int64_t>(1, start_faces - this->target_faces));
                 const int width = 40, filled = static_cast<int>(std::clamp(done, 0.0, 1.0) * width);
-                std::fprintf(stderr, "\rdecimate [%s%s] %3.0f%%  %lld faces", std::string(filled, '#').c_str(),
-                             std::string(width - filled, '.').c_str(), 100 * std::clamp(done, 0.0, 1.0),
-                             static_cast<long long>(p.faces));
+                std::fprintf(stderr, "\rdecimate [%s%s] %3.0f%%  %lld faces",
+                             std::string(filled, '#').c_str(),
+                             std::string(width - filled, '.').c_str(),
+                             100 * std::clamp(done, 0.0, 1.0), static_cast<long long>(p.faces));
                 drawn = true;
             }
         }
@@ -656,8 +658,11 @@ int run_decimate(const std::string& in, const std::string& out, const std::strin
     if (target < 0) throw idas::input_error("--faces must be non-negative");
 
     idas::run_report r;
-    if (algorithm == "qslim") r = decimate_with<qslim<mesh_t>, qslim_spec>(m, target, threads);
-    else r = decimate_with<shortest_edge_collapse<true, mesh_t>, shortest_edge_collapse_spec<true>>(m, target, threads);
+    if (algorithm == "qslim")
+        r = decimate_with<qslim<mesh_t>, qslim_spec>(m, target, threads);
+    else
+        r = decimate_with<shortest_edge_collapse<true, mesh_t>, shortest_edge_collapse_spec<true>>(
+            m, target, threads);
 
     idas::io::surface result;
     std::tie(result.vertices, result.faces) = m.to_arrays();
@@ -687,15 +692,15 @@ int run_decimate(const std::string& in, const std::string& out, const std::strin
                    "({:.3f} s total)\n",
                    in, input_faces, output_faces, target, algorithm, threads,
                    threads == 1 ? "" : "s", backend, r.seconds, total.seconds());
-        fmt::print("  collapses {}, refused {}, stale queue entries {}, lock failures {}\n", r.succeeded,
-                   r.refused, r.stale, r.lock_failures);
+        fmt::print("  collapses {}, refused {}, stale queue entries {}, lock failures {}\n",
+                   r.succeeded, r.refused, r.stale, r.lock_failures);
         fmt::print("  written to {}\n", out);
     }
     return 0;
 }
 
-#include "cli_remesh.hpp"
 #include "cli_harmonic.hpp"
+#include "cli_remesh.hpp"
 #include "cli_tet.hpp"
 
 // ---- main ----------------------------------------------------------------------------------
@@ -768,10 +773,13 @@ int run(int argc, char** argv) {
     decimate->add_option("--algorithm", algorithm, "shortest-edge or qslim")
         ->check(CLI::IsMember({"shortest-edge", "qslim"}))
         ->capture_default_str();
-    auto* ratio_opt = decimate->add_option("--ratio", ratio, "target face count as a fraction of the input's");
+    auto* ratio_opt =
+        decimate->add_option("--ratio", ratio, "target face count as a fraction of the input's");
     auto* faces_opt = decimate->add_option("--faces", target_faces, "target face count");
     ratio_opt->excludes(faces_opt);
-    decimate->add_option("--threads", threads, "worker threads")->check(unsigned_integer)->capture_default_str();
+    decimate->add_option("--threads", threads, "worker threads")
+        ->check(unsigned_integer)
+        ->capture_default_str();
     decimate->add_flag("--json", as_json, "print one JSON object instead of text");
     decimate->add_flag("--ascii", ascii, "write PLY and STL as text instead of binary");
     decimate->add_option("--backend", backend, "connectivity backend: indexed or corner-table")
@@ -783,17 +791,26 @@ int run(int argc, char** argv) {
     });
 
     remesh_arguments ra;
-    auto* remesh = app.add_subcommand("remesh", "Isotropic remeshing (Botsch-Kobbelt) to a target edge length");
+    auto* remesh = app.add_subcommand(
+        "remesh", "Isotropic remeshing (Botsch-Kobbelt) to a target edge length");
     remesh->add_option("IN", ra.in, "input mesh file (an orientable 2-manifold)")->required();
     remesh->add_option("OUT", ra.out, "output mesh file")->required();
-    remesh->add_option("--edge-length", ra.edge_length, "target edge length, relative to the bounding-box diagonal")
+    remesh
+        ->add_option("--edge-length", ra.edge_length,
+                     "target edge length, relative to the bounding-box diagonal")
         ->capture_default_str();
     remesh->add_flag("--absolute", ra.absolute, "--edge-length is absolute, not relative");
-    remesh->add_option("--iterations", ra.iterations, "iterations")->check(unsigned_integer)->capture_default_str();
-    remesh->add_option("--threads", ra.threads, "worker threads")->check(unsigned_integer)->capture_default_str();
-    remesh->add_option("--envelope", ra.envelope,
-                       "keep every new triangle within EPS (relative to the diagonal) of the input, exactly");
-    remesh->add_option("--feature-angle", ra.feature_angle, "keep edges sharper than this dihedral angle (degrees)");
+    remesh->add_option("--iterations", ra.iterations, "iterations")
+        ->check(unsigned_integer)
+        ->capture_default_str();
+    remesh->add_option("--threads", ra.threads, "worker threads")
+        ->check(unsigned_integer)
+        ->capture_default_str();
+    remesh->add_option(
+        "--envelope", ra.envelope,
+        "keep every new triangle within EPS (relative to the diagonal) of the input, exactly");
+    remesh->add_option("--feature-angle", ra.feature_angle,
+                       "keep edges sharper than this dihedral angle (degrees)");
     remesh->add_flag("!--free-boundary", ra.keep_boundary, "let boundary vertices move and vanish");
     remesh->add_flag("--json", ra.as_json, "print one JSON object instead of text");
     remesh->add_flag("--ascii", ra.ascii, "write PLY and STL as text instead of binary");

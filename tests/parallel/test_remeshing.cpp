@@ -160,8 +160,9 @@ TEST_CASE("parallel remeshing with the envelope invariant stays within eps") {
         remeshing_options o;
         o.target_length = 0.02 * input.diagonal(); // coarser than the input: chords would leave
         o.iterations = 3;
-        const auto r = isotropic_remeshing<tri_mesh<>, lock::vertex_try_lock, queue::dary_heap<4>,
-                                           partition::morton, envelope>::run(m, o, {.threads = threads}, env);
+        const auto r =
+            isotropic_remeshing<tri_mesh<>, lock::vertex_try_lock, queue::dary_heap<4>,
+                                partition::morton, envelope>::run(m, o, {.threads = threads}, env);
         CHECK(r.collapses > 0);
         REQUIRE_FALSE(find_inconsistency(m).has_value());
         const auto [V, F] = m.to_arrays();

@@ -84,7 +84,7 @@ concept tet_connectivity =
         { b.reserve(i, i) };
         { b.set_slot_recycling(true) };
     };
-    // clang-format on
+// clang-format on
 
 } // namespace idas
 
@@ -105,12 +105,12 @@ concept tri_mesh_like = requires(M m, const M cm, typename M::tuple t, index_t v
     { cm.vertex_alive(v) } -> std::convertible_to<bool>;
     { cm.switch_vertex(t) } -> std::same_as<typename M::tuple>;
     { cm.switch_edge(t) } -> std::same_as<typename M::tuple>;
-    { cm.switch_face(t) };
-    { cm.edge_vertices(t) };
+    {cm.switch_face(t)};
+    {cm.edge_vertices(t)};
     { cm.vertex_faces(v) } -> std::ranges::forward_range;
-    { cm.face_vertices(v) };
+    {cm.face_vertices(v)};
     { cm.position(v) } -> std::convertible_to<vec3>;
-    { m.set_slot_recycling(on) };
+    {m.set_slot_recycling(on)};
 };
 
 } // namespace idas

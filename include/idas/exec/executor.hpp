@@ -324,8 +324,7 @@ public:
     /// Tells the spec an operation was refused (in parallel its region is still held).
     template <class Op>
     static void refused(Spec& spec, const Mesh& m, const entry& e) {
-        if constexpr (requires { spec.refused(Op{}, m, e.tuple); })
-            spec.refused(Op{}, m, e.tuple);
+        if constexpr (requires { spec.refused(Op{}, m, e.tuple); }) spec.refused(Op{}, m, e.tuple);
     }
 
     static progress counts(const Mesh& m) {

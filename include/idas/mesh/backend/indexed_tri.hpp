@@ -21,8 +21,18 @@ public:
     /// what it changed itself.
     struct undo_entry {
         enum class what : std::uint8_t {
-            face_set, face_added, vertex_added, vertex_removed, vertex_dropped, vertex_reused, vf_insert, vf_erase, free_face_pushed,
-            free_face_popped, vertex_from_pool, face_from_pool
+            face_set,
+            face_added,
+            vertex_added,
+            vertex_removed,
+            vertex_dropped,
+            vertex_reused,
+            vf_insert,
+            vf_erase,
+            free_face_pushed,
+            free_face_popped,
+            vertex_from_pool,
+            face_from_pool
         };
         what kind;
         index_t a = 0, b = 0, c = 0; // face or vertex; vf: vertex, face, position
@@ -47,7 +57,8 @@ public:
             for (index_t v : faces[f]) vf_[v].push_back(f);
     }
     void reserve(index_t vertices, index_t faces) {
-        fv_.reserve(faces), version_.reserve(faces), vf_.reserve(vertices), valive_.reserve(vertices);
+        fv_.reserve(faces), version_.reserve(faces), vf_.reserve(vertices),
+            valive_.reserve(vertices);
     }
 
     index_t vertex_slots() const noexcept { return static_cast<index_t>(vf_.size()); }
@@ -60,9 +71,12 @@ public:
     /// use it to purge stale entries from their queues without holding the face's locks.
     /// (Versions are written through relaxed atomics, which cost nothing extra on x86.)
     version_t face_version_relaxed(index_t f) const noexcept {
-        return std::atomic_ref<version_t>(const_cast<version_t&>(version_[f])).load(std::memory_order_relaxed);
+        return std::atomic_ref<version_t>(const_cast<version_t&>(version_[f]))
+            .load(std::memory_order_relaxed);
     }
-    std::span<const index_t> vertex_faces(index_t v) const noexcept { return {vf_[v].data(), vf_[v].size()}; }
+    std::span<const index_t> vertex_faces(index_t v) const noexcept {
+        return {vf_[v].data(), vf_[v].size()};
+    }
 
     /// The face across local edge `le` of `f`, or invalid_index on the boundary.
     index_t opposite_face(index_t f, std::uint8_t le) const noexcept {
@@ -76,7 +90,8 @@ public:
     }
 
     std::size_t memory_bytes() const noexcept {
-        std::size_t bytes = fv_.capacity() * sizeof(tri_indices) + version_.capacity() * sizeof(version_t) +
+        std::size_t bytes = fv_.capacity() * sizeof(tri_indices) +
+                            version_.capacity() * sizeof(version_t) +
                             vf_.capacity() * sizeof(face_list) + valive_.capacity();
         for (const auto& l : vf_)
             if (l.capacity() > 10) bytes += l.capacity() * sizeof(index_t);
@@ -160,7 +175,8 @@ public:
         assert(vf_[v].empty());
         valive_[v] = 0;
         if (recycle_) free_vertices_.push_back(v);
-        log.push_back({recycle_ ? undo_entry::what::vertex_removed : undo_entry::what::vertex_dropped, v});
+        log.push_back(
+            {recycle_ ? undo_entry::what::vertex_removed : undo_entry::what::vertex_dropped, v});
     }
     index_t add_face(const tri_indices& f, undo_log& log) {
         index_t id;
@@ -222,7 +238,9 @@ public:
             const undo_entry e = log.back();
             log.pop_back();
             switch (e.kind) {
-            case w::face_set: fv_[e.a] = e.verts, set_version(e.a, e.version); break;
+            case w::face_set:
+                fv_[e.a] = e.verts, set_version(e.a, e.version);
+                break;
             case w::face_added:
                 assert(e.a + 1 == fv_.size());
                 fv_.pop_back(), version_.pop_back();
@@ -235,34 +253,47 @@ public:
                 valive_[e.a] = 1;
                 free_vertices_.pop_back();
                 break;
-            case w::vertex_dropped: valive_[e.a] = 1; break;
+            case w::vertex_dropped:
+                valive_[e.a] = 1;
+                break;
             case w::vertex_reused:
                 valive_[e.a] = 0;
                 free_vertices_.push_back(e.a);
                 break;
-            case w::free_face_pushed: free_faces_.pop_back(); break;
+            case w::free_face_pushed:
+                free_faces_.pop_back();
+                break;
             case w::vertex_from_pool:
                 valive_[e.a] = 0;
                 pools_[detail::worker_index].vertices.push_back(e.a);
                 break;
-            case w::face_from_pool: pools_[detail::worker_index].faces.push_back(e.a); break;
-            case w::free_face_popped: free_faces_.push_back(e.a); break;
+            case w::face_from_pool:
+                pools_[detail::worker_index].faces.push_back(e.a);
+                break;
+            case w::free_face_popped:
+                free_faces_.push_back(e.a);
+                break;
             case w::vf_insert:
                 assert(!vf_[e.a].empty() && vf_[e.a].back() == e.b);
                 vf_[e.a].pop_back();
                 break;
-            case w::vf_erase: vf_[e.a].insert(vf_[e.a].begin() + e.c, e.b); break;
+            case w::vf_erase:
+                vf_[e.a].insert(vf_[e.a].begin() + e.c, e.b);
+                break;
             }
         }
     }
 
     friend bool operator==(const indexed_tri& x, const indexed_tri& y) {
-        return x.fv_ == y.fv_ && x.version_ == y.version_ && x.valive_ == y.valive_ && x.vf_ == y.vf_ &&
-               x.free_faces_ == y.free_faces_ && x.free_vertices_ == y.free_vertices_;
+        return x.fv_ == y.fv_ && x.version_ == y.version_ && x.valive_ == y.valive_ &&
+               x.vf_ == y.vf_ && x.free_faces_ == y.free_faces_ &&
+               x.free_vertices_ == y.free_vertices_;
     }
 
 private:
-    static bool contains(const tri_indices& f, index_t v) noexcept { return f[0] == v || f[1] == v || f[2] == v; }
+    static bool contains(const tri_indices& f, index_t v) noexcept {
+        return f[0] == v || f[1] == v || f[2] == v;
+    }
     void set_version(index_t f, version_t v) noexcept {
         std::atomic_ref<version_t>(version_[f]).store(v, std::memory_order_relaxed);
     }
