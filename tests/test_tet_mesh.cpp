@@ -14,10 +14,11 @@ using idas::test::edge_ring_mesh;
 
 namespace {
 
+template <class Mesh>
 void expect_refusal(const std::vector<vec3>& V, const std::vector<tet_indices>& T,
                     const std::string& what) {
     try {
-        tet_mesh<> m(V, T);
+        Mesh m(V, T);
         FAIL("accepted bad tet mesh, expected: " << what);
     } catch (const input_error& e) {
         const std::string msg = e.what();
@@ -29,8 +30,9 @@ const std::vector<vec3> unit_tet = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
 
 } // namespace
 
-TEST_CASE("tet mesh: a single tet navigates by the switch identities") {
-    tet_mesh<> m(unit_tet, {{0, 1, 2, 3}});
+TEST_CASE_TEMPLATE("tet mesh: a single tet navigates by the switch identities", Mesh,
+                   IDAS_TET_MESHES) {
+    Mesh m(unit_tet, {{0, 1, 2, 3}});
     CHECK(m.n_vertices() == 4);
     CHECK(m.n_edges() == 6);
     CHECK(m.n_faces() == 4);
@@ -73,11 +75,12 @@ TEST_CASE("tet mesh: a single tet navigates by the switch identities") {
     CHECK(seen.size() == 24);
 }
 
-TEST_CASE("tet mesh: subdivided cubes have the expected counts, ids and boundary") {
+TEST_CASE_TEMPLATE("tet mesh: subdivided cubes have the expected counts, ids and boundary", Mesh,
+                   IDAS_TET_MESHES) {
     for (bool five : {false, true}) {
         CAPTURE(five);
         const int n = 3;
-        auto m = cube(n, five, 0.1, 3);
+        auto m = cube<Mesh>(n, five, 0.1, 3);
         const std::size_t cells = n * n * n;
         CHECK(m.n_vertices() == 64);
         CHECK(m.n_tets() == cells * (five ? 5 : 6));
@@ -122,8 +125,9 @@ TEST_CASE("tet mesh: subdivided cubes have the expected counts, ids and boundary
     }
 }
 
-TEST_CASE("tet mesh: one-ring, edge tets, find_edge and find_face") {
-    auto m = edge_ring_mesh(5);
+TEST_CASE_TEMPLATE("tet mesh: one-ring, edge tets, find_edge and find_face", Mesh,
+                   IDAS_TET_MESHES) {
+    auto m = edge_ring_mesh<Mesh>(5);
     std::vector<index_t> ring;
     m.one_ring_vertices(0, ring);
     std::sort(ring.begin(), ring.end());
@@ -158,26 +162,27 @@ TEST_CASE("tet mesh: one-ring, edge tets, find_edge and find_face") {
     CHECK(u.tid == ab->tid);
 }
 
-TEST_CASE("tet mesh: invalid input is refused with a message naming the element") {
-    expect_refusal({{0, 0, 0}, {1, 0, 0}, {0, std::nan(""), 0}, {0, 0, 1}}, {{0, 1, 2, 3}},
-                   "vertex 2 has a non-finite coordinate");
-    expect_refusal(unit_tet, {{0, 1, 2, 9}}, "tet 0 references vertex 9");
-    expect_refusal(unit_tet, {{0, 1, 2, 2}}, "tet 0 is degenerate: it uses vertex 2 twice");
-    expect_refusal({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0}}, {{0, 1, 2, 3}},
-                   "tet 0 is degenerate: its vertices are coplanar");
-    expect_refusal(unit_tet, {{0, 2, 1, 3}}, "tet 0 is inverted");
+TEST_CASE_TEMPLATE("tet mesh: invalid input is refused with a message naming the element", Mesh,
+                   IDAS_TET_MESHES) {
+    expect_refusal<Mesh>({{0, 0, 0}, {1, 0, 0}, {0, std::nan(""), 0}, {0, 0, 1}}, {{0, 1, 2, 3}},
+                         "vertex 2 has a non-finite coordinate");
+    expect_refusal<Mesh>(unit_tet, {{0, 1, 2, 9}}, "tet 0 references vertex 9");
+    expect_refusal<Mesh>(unit_tet, {{0, 1, 2, 2}}, "tet 0 is degenerate: it uses vertex 2 twice");
+    expect_refusal<Mesh>({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0}}, {{0, 1, 2, 3}},
+                         "tet 0 is degenerate: its vertices are coplanar");
+    expect_refusal<Mesh>(unit_tet, {{0, 2, 1, 3}}, "tet 0 is inverted");
     // Three tets on one face (0, 1, 2).
     std::vector<vec3> V = unit_tet;
     V.push_back({0.2, 0.2, -1});
     V.push_back({0.3, 0.3, 2});
     std::vector<tet_indices> T = {{0, 1, 2, 3}, {0, 2, 1, 4}, {0, 1, 2, 5}};
-    expect_refusal(V, T, "face (0, 1, 2) is shared by 3 tets");
+    expect_refusal<Mesh>(V, T, "face (0, 1, 2) is shared by 3 tets");
     // Two tets on the same side of a face overlap.
-    expect_refusal(V, {{0, 1, 2, 3}, {0, 1, 2, 5}}, "tet 0 and tet 1 overlap");
+    expect_refusal<Mesh>(V, {{0, 1, 2, 3}, {0, 1, 2, 5}}, "tet 0 and tet 1 overlap");
     // A duplicated tet too.
-    expect_refusal(unit_tet, {{0, 1, 2, 3}, {0, 1, 2, 3}}, "overlap");
+    expect_refusal<Mesh>(unit_tet, {{0, 1, 2, 3}, {0, 1, 2, 3}}, "overlap");
     // Unused vertices are fine (they are not exported).
-    tet_mesh<> m(V, {{0, 1, 2, 3}, {0, 2, 1, 4}});
+    Mesh m(V, {{0, 1, 2, 3}, {0, 2, 1, 4}});
     CHECK(m.n_vertices() == 5);
     CHECK(m.to_arrays().first.size() == 5);
     CHECK_FALSE(find_inconsistency(m, true).has_value());
@@ -189,8 +194,8 @@ using pkey = std::array<double, 3>;
 pkey key(const vec3& p) {
     return {p.x, p.y, p.z};
 }
-template <std::size_t N>
-std::array<pkey, N> sorted_keys(const tet_mesh<>& m, const std::array<index_t, N>& vs) {
+template <std::size_t N, class Mesh>
+std::array<pkey, N> sorted_keys(const Mesh& m, const std::array<index_t, N>& vs) {
     std::array<pkey, N> k;
     for (std::size_t i = 0; i < N; ++i) k[i] = key(m.position(vs[i]));
     std::sort(k.begin(), k.end());
@@ -198,12 +203,13 @@ std::array<pkey, N> sorted_keys(const tet_mesh<>& m, const std::array<index_t, N
 }
 } // namespace
 
-TEST_CASE("tet mesh: attributes of every kind follow their simplices through consolidate") {
-    auto m = cube(3, false, 0.1, 9);
-    auto va = m.add_vertex_attribute<double>("vd", 1.5);
-    auto ea = m.add_edge_attribute<int>("ei", -1);
-    auto fa = m.add_face_attribute<int>("fi", -1);
-    auto ta = m.add_tet_attribute<int>("ti", -1);
+TEST_CASE_TEMPLATE("tet mesh: attributes of every kind follow their simplices through consolidate",
+                   Mesh, IDAS_TET_MESHES) {
+    auto m = cube<Mesh>(3, false, 0.1, 9);
+    auto va = m.template add_vertex_attribute<double>("vd", 1.5);
+    auto ea = m.template add_edge_attribute<int>("ei", -1);
+    auto fa = m.template add_face_attribute<int>("fi", -1);
+    auto ta = m.template add_tet_attribute<int>("ti", -1);
     CHECK(m.attribute(va)[3] == 1.5);
     CHECK(m.attribute(ea)[0] == -1);
     // Make dead slots: collapse a few interior edges (the spec keeps tets positive).
@@ -260,8 +266,9 @@ TEST_CASE("tet mesh: attributes of every kind follow their simplices through con
     CHECK(T1 == T0);
 }
 
-TEST_CASE("tet mesh: copies are identical, stale tuples detected after edits") {
-    auto m = cube(2, true, 0.1, 4);
+TEST_CASE_TEMPLATE("tet mesh: copies are identical, stale tuples detected after edits", Mesh,
+                   IDAS_TET_MESHES) {
+    auto m = cube<Mesh>(2, true, 0.1, 4);
     auto copy = m;
     CHECK(identical(m, copy));
     const auto all = m.get_tets();
@@ -279,8 +286,9 @@ TEST_CASE("tet mesh: copies are identical, stale tuples detected after edits") {
     CHECK(stale == int(around.size()));
 }
 
-TEST_CASE("tet mesh: without slot recycling removed slots stay dead; rollback stays exact") {
-    auto m = cube(2, false, 0.1, 6);
+TEST_CASE_TEMPLATE("tet mesh: without slot recycling removed slots stay dead; rollback stays exact",
+                   Mesh, IDAS_TET_MESHES) {
+    auto m = cube<Mesh>(2, false, 0.1, 6);
     idas::test::tet_spec<> spec;
     spec.attach(m);
     m.set_slot_recycling(false);

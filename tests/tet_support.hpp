@@ -15,7 +15,17 @@
 #include <random>
 #include <vector>
 
+// The tet conformance suite: tet-mesh tests are TEST_CASE_TEMPLATEs over both backends.
+TYPE_TO_STRING_AS("indexed", idas::tet_mesh<idas::backend::indexed_tet>);
+TYPE_TO_STRING_AS("adjacency", idas::tet_mesh<idas::backend::adjacency_tet>);
+#define IDAS_TET_MESHES                                                                            \
+    idas::tet_mesh<idas::backend::indexed_tet>, idas::tet_mesh<idas::backend::adjacency_tet>
+
 namespace idas::test {
+
+/// Whether the mesh type stores face links (adjacency_tet), which refuses pinched vertices.
+template <class Mesh>
+inline constexpr bool refuses_pinched = Mesh::face_links;
 
 /// Swaps two corners of a negatively oriented tet so it is positive.
 inline void orient_positively(const std::vector<vec3>& V, tet_indices& t) {
@@ -74,14 +84,16 @@ cube_arrays(int n, bool five = false, double jitter = 0, unsigned seed = 1) {
     return {V, T};
 }
 
-inline tet_mesh<> cube(int n, bool five = false, double jitter = 0, unsigned seed = 1) {
+template <class Mesh = tet_mesh<>>
+Mesh cube(int n, bool five = false, double jitter = 0, unsigned seed = 1) {
     auto [V, T] = cube_arrays(n, five, jitter, seed);
     return {V, T};
 }
 
 /// n tets around the edge from a = (0, 0, 1) (vertex 0) to b = (0, 0, -1) (vertex 1);
 /// the ring vertices 2..n+1 lie on the unit circle, radii scaled by `radius(i)`.
-inline tet_mesh<> edge_ring_mesh(int n, double wobble = 0) {
+template <class Mesh = tet_mesh<>>
+Mesh edge_ring_mesh(int n, double wobble = 0) {
     std::vector<vec3> V = {{0, 0, 1}, {0, 0, -1}};
     for (int i = 0; i < n; ++i) {
         const double phi = 2 * std::numbers::pi * i / n;
@@ -108,16 +120,18 @@ struct tet_spec {
     double fail_probability = 0;
     std::mt19937* rng = nullptr;
 
-    void attach(tet_mesh<>& m) {
-        edge_length = m.add_edge_attribute<float>("edge_length", -1.f);
-        face_mark = m.add_face_attribute<int>("face_mark", 0);
-        generation = m.add_tet_attribute<int>("generation", 0);
+    template <class Mesh>
+    void attach(Mesh& m) {
+        edge_length = m.template add_edge_attribute<float>("edge_length", -1.f);
+        face_mark = m.template add_face_attribute<int>("face_mark", 0);
+        generation = m.template add_tet_attribute<int>("generation", 0);
     }
     bool fail_now() {
         return rng && std::uniform_real_distribution<double>(0, 1)(*rng) < fail_probability;
     }
 
-    void write_cells(tet_mesh<>& m, const op_result<tet_tuple>& r) {
+    template <class Mesh>
+    void write_cells(Mesh& m, const op_result<tet_tuple>& r) {
         if (!edge_length.valid()) return; // not attached to a mesh
         auto len = m.attribute(edge_length);
         auto mark = m.attribute(face_mark);
@@ -136,11 +150,13 @@ struct tet_spec {
         }
     }
 
-    std::optional<vec3> before(op::split_edge, const tet_mesh<>& m, const tet_tuple& t) {
+    template <class Mesh>
+    std::optional<vec3> before(op::split_edge, const Mesh& m, const tet_tuple& t) {
         const auto [a, b] = m.edge_vertices(t);
         return (m.position(a) + m.position(b)) * 0.5;
     }
-    std::optional<vec3> before(op::collapse_edge, const tet_mesh<>& m, const tet_tuple& t) {
+    template <class Mesh>
+    std::optional<vec3> before(op::collapse_edge, const Mesh& m, const tet_tuple& t) {
         const auto [a, b] = m.edge_vertices(t);
         // A boundary vertex stays where it is, so the boundary keeps its shape if it can.
         const bool ba = m.is_boundary_vertex(a), bb = m.is_boundary_vertex(b);
@@ -149,16 +165,17 @@ struct tet_spec {
         if (bb) return m.position(b);
         return (m.position(a) + m.position(b)) * 0.5;
     }
-    template <class Op>
+    template <class Op, class Mesh>
     requires(std::is_same_v<Op, op::split_edge> ||
-             std::is_same_v<Op, op::collapse_edge>) bool after(Op, tet_mesh<>& m,
+             std::is_same_v<Op, op::collapse_edge>) bool after(Op, Mesh& m,
                                                                const op_result<tet_tuple>& r,
                                                                vec3& new_position) {
         m.positions().set(r.anchor.vid, new_position);
         write_cells(m, r);
         return !fail_now();
     }
-    bool after(op::smooth_vertex, tet_mesh<>& m, const op_result<tet_tuple>& r) {
+    template <class Mesh>
+    bool after(op::smooth_vertex, Mesh& m, const op_result<tet_tuple>& r) {
         boost::container::small_vector<index_t, 32> ring;
         m.one_ring_vertices(r.anchor.vid, ring);
         vec3 c{};
@@ -167,10 +184,10 @@ struct tet_spec {
         write_cells(m, r);
         return !fail_now();
     }
-    template <class Op>
+    template <class Op, class Mesh>
     requires(std::is_same_v<Op, op::face_swap_23> || std::is_same_v<Op, op::edge_swap_32> ||
              std::is_same_v<Op, op::edge_swap_44> ||
-             std::is_same_v<Op, op::edge_removal>) bool after(Op, tet_mesh<>& m,
+             std::is_same_v<Op, op::edge_removal>) bool after(Op, Mesh& m,
                                                               const op_result<tet_tuple>& r) {
         write_cells(m, r);
         return !fail_now();

@@ -11,6 +11,7 @@
 #include <idas/core/attribute.hpp>
 #include <idas/core/concepts.hpp>
 #include <idas/core/tuple.hpp>
+#include <idas/mesh/backend/adjacency_tet.hpp>
 #include <idas/mesh/backend/indexed_tet.hpp>
 #include <idas/predicates/orient.hpp>
 
@@ -64,6 +65,12 @@ public:
     using undo_log = typename Backend::undo_log;
 
     tet_mesh() { position_ = attrs_.add<vec3, simplex_kind::vertex>("position", 0); }
+
+    /// Whether the backend stores face links (adjacency_tet): then crossing a face is one
+    /// load and the queries about an edge walk around it instead of searching a star.
+    static constexpr bool face_links = requires(const Backend& b, index_t t, std::uint8_t lf) {
+        { b.opposite_face(t, lf) } -> std::same_as<std::pair<index_t, std::uint8_t>>;
+    };
 
     /// Builds an editable mesh. Throws input_error naming the offending element unless
     /// every coordinate is finite, every tet has four distinct in-range vertices and is
@@ -139,6 +146,11 @@ public:
     }
     /// Tuple at vertex v in one of its tets; v must have a tet.
     tuple tuple_from_vertex(index_t v) const noexcept {
+        if constexpr (requires { conn_.vertex_anchor(v); }) {
+            const index_t t = conn_.vertex_anchor(v);
+            if (t != invalid_index) return tuple_in_tet(v, t);
+            return {v, invalid_index, 0, 0, 0};
+        }
         for (index_t t : conn_.vertex_tets(v)) return tuple_in_tet(v, t);
         return {v, invalid_index, 0, 0, 0};
     }
@@ -187,6 +199,16 @@ public:
     index_t eid(const tuple& t) const noexcept {
         const auto [a, b] = edge_vertices(t);
         index_t best = 6 * t.tid + t.local_edge;
+        if constexpr (face_links) {
+            walk_edge(t.tid, a, b, [&](index_t g) {
+                const auto& gv = conn_.tet_vertices(g);
+                best = std::min<index_t>(
+                    best,
+                    6 * g +
+                        tet_local::edge_of[tet_local::index_of(gv, a)][tet_local::index_of(gv, b)]);
+            });
+            return best;
+        }
         for (index_t g : conn_.vertex_tets(a)) {
             if (6 * g >= best) continue;
             const auto& gv = conn_.tet_vertices(g);
@@ -199,6 +221,10 @@ public:
     /// Face identity: the smaller (tet * 4 + local face) slot of the face's (up to) two tets.
     index_t fid(const tuple& t) const noexcept {
         const index_t h = 4 * t.tid + t.local_face;
+        if constexpr (face_links) {
+            const auto [g, lf] = conn_.opposite_face(t.tid, t.local_face);
+            return g == invalid_index || g > t.tid ? h : 4 * g + lf;
+        }
         const index_t g = conn_.opposite_tet(t.tid, t.local_face);
         if (g == invalid_index || g > t.tid) return h;
         return 4 * g + local_face_in(g, t.tid, t.local_face);
@@ -232,13 +258,18 @@ public:
     /// Same vertex, edge and face; the tet on the face's other side, or nothing on the
     /// boundary.
     std::optional<tuple> switch_tetrahedron(const tuple& t) const noexcept {
-        const index_t g = conn_.opposite_tet(t.tid, t.local_face);
+        std::uint8_t lf = 0;
+        index_t g;
+        if constexpr (face_links)
+            std::tie(g, lf) = conn_.opposite_face(t.tid, t.local_face);
+        else
+            g = conn_.opposite_tet(t.tid, t.local_face);
         if (g == invalid_index) return std::nullopt;
+        if constexpr (!face_links) lf = local_face_in(g, t.tid, t.local_face);
         const auto& gv = conn_.tet_vertices(g);
         const std::uint8_t i = tet_local::index_of(gv, t.vid);
         const std::uint8_t j = tet_local::index_of(gv, other_endpoint(t));
-        return tuple{t.vid, g, tet_local::edge_of[i][j], local_face_in(g, t.tid, t.local_face),
-                     conn_.tet_version(g)};
+        return tuple{t.vid, g, tet_local::edge_of[i][j], lf, conn_.tet_version(g)};
     }
 
     bool is_boundary_face(const tuple& t) const noexcept {
@@ -248,6 +279,7 @@ public:
     /// shared by exactly two of them.
     bool is_boundary_edge(const tuple& t) const noexcept {
         const auto [a, b] = edge_vertices(t);
+        if constexpr (face_links) return !walk_edge(t.tid, a, b, [](index_t) {});
         boost::container::small_vector<index_t, 64> ring;
         for (index_t g : conn_.vertex_tets(a)) {
             const auto& gv = conn_.tet_vertices(g);
@@ -265,6 +297,14 @@ public:
     /// A vertex is interior iff its link is closed: every link edge lies in two link
     /// triangles.
     bool is_boundary_vertex(index_t v) const noexcept {
+        if constexpr (face_links) { // a face of the star at v without a twin
+            for (index_t g : conn_.vertex_tets(v)) {
+                const auto& gv = conn_.tet_vertices(g);
+                for (std::uint8_t k = 0; k < 4; ++k)
+                    if (gv[k] != v && conn_.opposite_tet(g, k) == invalid_index) return true;
+            }
+            return false;
+        }
         boost::container::small_vector<std::pair<index_t, index_t>, 192> edges;
         for (index_t g : conn_.vertex_tets(v)) {
             const auto& gv = conn_.tet_vertices(g);
@@ -296,10 +336,40 @@ public:
     template <class Out>
     void edge_tets(const tuple& t, Out& out) const {
         const auto [a, b] = edge_vertices(t);
+        if constexpr (face_links) {
+            walk_edge(t.tid, a, b, [&](index_t g) { out.push_back(g); });
+            return;
+        }
         for (index_t g : conn_.vertex_tets(a))
             if (tet_local::contains(conn_.tet_vertices(g), b)) out.push_back(g);
     }
     decltype(auto) vertex_tets(index_t v) const noexcept { return conn_.vertex_tets(v); }
+    /// With face links: visits the tets around edge ab, starting at tet t (which holds
+    /// it), each once; true iff they close into a ring (ab is interior).
+    template <class F>
+    bool walk_edge(index_t t, index_t a, index_t b, F&& f) const requires face_links {
+        f(t);
+        const auto& tv = conn_.tet_vertices(t);
+        const auto rest = tet_local::edge_complement(
+            tet_local::edge_of[tet_local::index_of(tv, a)][tet_local::index_of(tv, b)]);
+        // Leaving a tet across the face opposite one of its two other vertices, the next
+        // tet is left across the face opposite the vertex the two share besides a and b.
+        for (std::uint8_t side = 0; side < 2; ++side) {
+            index_t g = t;
+            std::uint8_t cross = rest[side];
+            for (;;) {
+                const auto [h, lf] = conn_.opposite_face(g, cross);
+                if (h == invalid_index) break;
+                if (h == t) return true;
+                f(h);
+                const auto& hv = conn_.tet_vertices(h);
+                cross = static_cast<std::uint8_t>(6 - tet_local::index_of(hv, a) -
+                                                  tet_local::index_of(hv, b) - lf);
+                g = h;
+            }
+        }
+        return false;
+    }
     const tet_indices& tet_vertices(index_t t) const noexcept { return conn_.tet_vertices(t); }
     /// The two vertices of the tuple's edge, tuple's vertex first.
     std::pair<index_t, index_t> edge_vertices(const tuple& t) const noexcept {
@@ -452,6 +522,11 @@ public:
     void set_tet(index_t t, const tet_indices& v, undo_log& log) { conn_.set_tet(t, v, log); }
     void touch_tet(index_t t, undo_log& log) { conn_.touch_tet(t, log); }
     void rollback(undo_log& log, std::size_t mark) { conn_.rollback(log, mark); }
+    /// After mutations that glue new tets onto an untouched boundary (no operation of
+    /// tet_ops.hpp does): lets a backend with face links find those twins.
+    void settle(undo_log& log) {
+        if constexpr (requires { conn_.settle(log); }) conn_.settle(log);
+    }
     /// See indexed_tet::set_slot_recycling.
     void set_slot_recycling(bool on) noexcept { conn_.set_slot_recycling(on); }
 

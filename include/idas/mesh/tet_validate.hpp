@@ -43,6 +43,11 @@ std::optional<std::string> check_tet(const tet_mesh<Backend>& m, index_t t) {
             return at_tet("tet", t) + "is not listed exactly once by vertex " +
                    std::to_string(tv[i]);
     }
+    if constexpr (requires {
+                      { c.check_tet(t) } -> std::same_as<std::optional<std::string>>;
+                  }) {
+        if (auto e = c.check_tet(t)) return at_tet("tet", t) + *e; // the backend's own invariants
+    }
     const auto p = m.positions();
     if (orient3d(p[tv[0]], p[tv[1]], p[tv[2]], p[tv[3]]) <= 0)
         return at_tet("tet", t) + "is flat or inverted";
@@ -103,6 +108,11 @@ std::optional<std::string> check_tet_vertex(const tet_mesh<Backend>& m, index_t 
     const auto list = c.vertex_tets(v);
     if (!c.vertex_alive(v) && !std::ranges::empty(list))
         return at_tet("vertex", v) + "is dead but has tets";
+    if constexpr (requires {
+                      { c.check_vertex(v) } -> std::same_as<std::optional<std::string>>;
+                  }) {
+        if (auto e = c.check_vertex(v)) return at_tet("vertex", v) + *e;
+    }
     for (auto it = list.begin(); it != list.end(); ++it) {
         const index_t g = *it;
         if (g >= m.tet_slots() || !c.tet_alive(g)) return at_tet("vertex", v) + "lists a dead tet";

@@ -84,9 +84,27 @@ struct edge_ring {
 };
 
 /// Fills `r` and returns true iff the tets of edge ab form a single closed ring of at
-/// most max_edge_ring tets (so ab is interior and manifold).
+/// most max_edge_ring tets (so ab is interior and manifold). `hint`, a tet holding ab,
+/// lets a backend with face links walk around the edge instead of searching a's star.
 template <class Mesh>
-bool closed_edge_ring(const Mesh& m, index_t a, index_t b, edge_ring& r) {
+bool closed_edge_ring(const Mesh& m, index_t a, index_t b, edge_ring& r,
+                      index_t hint = invalid_index) {
+    if constexpr (requires { requires Mesh::face_links; }) {
+        if (hint != invalid_index) {
+            r.tets.clear(), r.verts.clear();
+            index_t g = hint;
+            for (;;) {
+                if (r.tets.size() == r.tets.capacity()) return false;
+                const auto& tv = m.tet_vertices(g);
+                const index_t x = oriented_opposite(tv, a, b).first;
+                r.tets.push_back(g), r.verts.push_back(x);
+                // (a, b, x, y) is positive: the next tet holds a, b, y and the next ring vertex.
+                g = m.connectivity().opposite_tet(g, tet_local::index_of(tv, x));
+                if (g == invalid_index) return false; // open: ab is on the boundary
+                if (g == hint) return r.tets.size() >= 3;
+            }
+        }
+    }
     struct item {
         index_t tet, x, y;
     };
@@ -347,7 +365,8 @@ std::optional<op_result<tet_tuple>> collapse_edge(tet_mesh<B>& m, const tet_tupl
     if (!survivor || !link_condition_3d_holds(m, a, b)) return std::nullopt;
     return detail::run_tri_operation<op::collapse_edge>(m, t, spec, ctx, [&] {
         auto& tets_b = ctx.scratch;
-        tets_b.assign(m.vertex_tets(b).begin(), m.vertex_tets(b).end());
+        const auto star_b = m.vertex_tets(b); // may be a range computed by value
+        tets_b.assign(star_b.begin(), star_b.end());
         for (index_t g : tets_b) {
             const auto& tv = m.tet_vertices(g);
             if (tet_local::contains(tv, a))
@@ -424,7 +443,7 @@ std::optional<op_result<tet_tuple>> edge_swap_32(tet_mesh<B>& m, const tet_tuple
     if (!m.is_valid(t)) return std::nullopt;
     const auto [a, b] = m.edge_vertices(t);
     detail::edge_ring r;
-    if (!detail::closed_edge_ring(m, a, b, r) || r.tets.size() != 3 ||
+    if (!detail::closed_edge_ring(m, a, b, r, t.tid) || r.tets.size() != 3 ||
         !detail::triangle_face_free(m, r))
         return std::nullopt;
     return detail::run_tri_operation<op::edge_swap_32>(m, t, spec, ctx, [&] {
@@ -443,7 +462,7 @@ std::optional<op_result<tet_tuple>> edge_swap_44(tet_mesh<B>& m, const tet_tuple
     if (!m.is_valid(t)) return std::nullopt;
     const auto [a, b] = m.edge_vertices(t);
     detail::edge_ring r;
-    if (!detail::closed_edge_ring(m, a, b, r) || r.tets.size() != 4) return std::nullopt;
+    if (!detail::closed_edge_ring(m, a, b, r, t.tid) || r.tets.size() != 4) return std::nullopt;
     const index_t c = m.face_vertices(t)[2];
     std::uint8_t i = 0;
     while (i < 4 && r.verts[i] != c) ++i;
@@ -471,7 +490,7 @@ std::optional<op_result<tet_tuple>> edge_removal(tet_mesh<B>& m, const tet_tuple
     if (!m.is_valid(t)) return std::nullopt;
     const auto [a, b] = m.edge_vertices(t);
     detail::edge_ring r;
-    if (!detail::closed_edge_ring(m, a, b, r) || !detail::triangle_face_free(m, r))
+    if (!detail::closed_edge_ring(m, a, b, r, t.tid) || !detail::triangle_face_free(m, r))
         return std::nullopt;
     const std::size_t n = r.verts.size();
     constexpr double reject = -std::numeric_limits<double>::infinity();
