@@ -26,8 +26,10 @@
 //   I         every new tet positively oriented (exact orient3d); flips never touch the
 //             boundary (the convex hull) and smoothing never moves boundary vertices, so
 //             the vertex set and the hull are preserved
-//   S         flips until no flip improves; complete mode then alternates smoothing
-//             passes and flips for `rounds` rounds
+//   S         both modes: 3-2 swaps until none improves. Complete mode then runs `rounds`
+//             times a smoothing pass and all three flips seeded from the tets whose energy
+//             is above `seed_above` times the mean (a full scan of every face and edge
+//             costs as much as a smoothing pass and finds few more improving flips).
 #pragma once
 
 #include <idas/exec/executor.hpp>
@@ -42,7 +44,9 @@
 #include <cmath>
 #include <limits>
 #include <optional>
+#include <type_traits>
 #include <utility>
+#include <vector>
 
 namespace idas::algorithms {
 
@@ -107,18 +111,56 @@ inline bool improves(const energy_sum& before, const energy_sum& after, bool kee
     return !keep_max || after.max <= before.max;
 }
 
-/// Number of tets around edge ab (tets of a holding b).
+/// The ring of edge ab (as detail::closed_edge_ring) if it is closed and has at most
+/// `max_tets` tets; else false. Scans the smaller of the two stars and gives up as soon as
+/// the edge has too many tets, so testing the edges of new tets for 3-2 and 4-4 swaps
+/// costs little more than one star scan each.
 template <class Mesh>
-std::size_t edge_valence(const Mesh& m, index_t a, index_t b) {
+bool short_edge_ring(const Mesh& m, index_t a, index_t b, std::size_t max_tets,
+                     idas::detail::edge_ring& r) {
+    struct item {
+        index_t tet, x, y;
+    };
+    std::array<item, 4> items;
     std::size_t n = 0;
-    for (index_t g : m.vertex_tets(a)) n += tet_local::contains(m.tet_vertices(g), b) ? 1 : 0;
-    return n;
+    const auto sa = m.vertex_tets(a), sb = m.vertex_tets(b);
+    const bool from_b = sb.size() < sa.size();
+    const index_t other = from_b ? a : b;
+    for (index_t g : from_b ? sb : sa) {
+        if (!tet_local::contains(m.tet_vertices(g), other)) continue;
+        if (n == max_tets || n == items.size()) return false;
+        items[n++].tet = g;
+    }
+    if (n < 3) return false;
+    for (std::size_t k = 0; k < n; ++k) {
+        const auto [x, y] = idas::detail::oriented_opposite(m.tet_vertices(items[k].tet), a, b);
+        items[k].x = x, items[k].y = y;
+    }
+    r.tets.clear(), r.verts.clear();
+    std::uint32_t used = 1;
+    r.tets.push_back(items[0].tet), r.verts.push_back(items[0].x);
+    index_t next = items[0].y;
+    while (next != items[0].x) {
+        std::size_t k = 0;
+        while (k < n && ((used >> k) & 1u || items[k].x != next)) ++k;
+        if (k == n) return false; // open (boundary) or broken ring
+        used |= 1u << k;
+        r.tets.push_back(items[k].tet), r.verts.push_back(items[k].x);
+        next = items[k].y;
+    }
+    return r.tets.size() == n;
 }
 
 } // namespace detail
 
 /// The flip phase. Mode is a template argument, so the reduced spec's operation list holds
 /// the 3-2 swap alone and its schedule compiles without the others.
+///
+/// Energies of the current tets are cached per tet slot (filled by `prepare`, updated by
+/// `renew` for every new tet), so testing a flip computes only the energies of the tets it
+/// would create, and stops as soon as their partial sum reaches the old one. In parallel a
+/// slot's entry is written by the worker that created the tet, which holds all its
+/// vertices, and read only by workers holding one of them.
 template <harmonic_mode Mode>
 struct harmonic_flip_spec {
     using operations =
@@ -128,7 +170,30 @@ struct harmonic_flip_spec {
 
     bool keep_max = true; // also refuse flips that raise the local maximum energy
 
+    /// E per tet slot; slots past the end (tets added serially beyond the headroom) are
+    /// computed on demand.
+    std::vector<double> energies{};
+
     auto invariants() const { return invariant_set<positive_orientation>{}; }
+
+    template <class Mesh>
+    void prepare(const Mesh& m) {
+        // Headroom for the tets 2-3 swaps add in parallel (see parallel_growth).
+        const std::size_t slots = m.tet_slots();
+        energies.assign(slots + (complete ? std::max<std::size_t>(4096, slots / 4) : 0),
+                        std::numeric_limits<double>::infinity());
+        const auto p = m.positions();
+        for (index_t t = 0; t < slots; ++t)
+            if (m.tet_alive(t)) {
+                const auto& tv = m.tet_vertices(t);
+                energies[t] = harmonic_energy(p[tv[0]], p[tv[1]], p[tv[2]], p[tv[3]]);
+            }
+    }
+
+    template <class Mesh>
+    double energy(const Mesh& m, index_t t) const {
+        return t < energies.size() ? energies[t] : harmonic_energy(m, m.tet_vertices(t));
+    }
 
     // ---- the energy tests, on the old mesh ----
     // Used twice: when an entry is pushed (so the queue holds only flips that improve at
@@ -136,37 +201,34 @@ struct harmonic_flip_spec {
     // tet of a candidate renews the candidate from the new tets, so filtering at push
     // time loses nothing.
 
-    /// 3-2 of edge ab: the ring x0 x1 x2 becomes (x0 x1 x2 b) and (x0 x2 x1 a).
+    /// 3-2 of edge ab with ring x0 x1 x2: it becomes (x0 x1 x2 b) and (x0 x2 x1 a).
     template <class Mesh>
-    bool improves_32(const Mesh& m, index_t a, index_t b) const {
-        idas::detail::edge_ring r;
-        if (!idas::detail::closed_edge_ring(m, a, b, r) || r.tets.size() != 3) return false;
+    bool improves_32(const Mesh& m, index_t a, index_t b, const idas::detail::edge_ring& r) const {
         detail::energy_sum old_e, new_e;
-        for (index_t g : r.tets) old_e.add(harmonic_energy(m, m.tet_vertices(g)));
+        for (index_t g : r.tets) old_e.add(energy(m, g));
         new_e.add(harmonic_energy(m, {r.verts[0], r.verts[1], r.verts[2], b}));
+        if (!(new_e.sum < old_e.sum)) return false;
         new_e.add(harmonic_energy(m, {r.verts[0], r.verts[2], r.verts[1], a}));
         return detail::improves(old_e, new_e, keep_max);
     }
 
     /// 4-4 of edge ab with ring x0..x3: the new diagonal x_i x_{i+2} for i = 0 or 1.
-    /// Returns the ring vertex x_i of the better improving diagonal, or invalid_index.
+    /// Returns i of the better improving diagonal, or -1.
     template <class Mesh>
-    index_t best_44(const Mesh& m, index_t a, index_t b) const {
-        idas::detail::edge_ring r;
-        if (!idas::detail::closed_edge_ring(m, a, b, r) || r.tets.size() != 4) return invalid_index;
+    int best_44(const Mesh& m, index_t a, index_t b, const idas::detail::edge_ring& r) const {
         detail::energy_sum old_e;
-        for (index_t g : r.tets) old_e.add(harmonic_energy(m, m.tet_vertices(g)));
-        index_t best = invalid_index;
+        for (index_t g : r.tets) old_e.add(energy(m, g));
+        int best = -1;
         detail::energy_sum best_e = old_e;
         for (std::size_t i = 0; i < 2; ++i) {
             const index_t x0 = r.verts[i], x1 = r.verts[i + 1], x2 = r.verts[i + 2],
                           x3 = r.verts[(i + 3) % 4];
+            const tet_indices nt[4] = {
+                {x0, x1, x2, b}, {x0, x2, x1, a}, {x0, x2, x3, b}, {x0, x3, x2, a}};
             detail::energy_sum e;
-            e.add(harmonic_energy(m, {x0, x1, x2, b}));
-            e.add(harmonic_energy(m, {x0, x2, x1, a}));
-            e.add(harmonic_energy(m, {x0, x2, x3, b}));
-            e.add(harmonic_energy(m, {x0, x3, x2, a}));
-            if (detail::improves(best_e, e, keep_max)) best = x0, best_e = e;
+            std::size_t k = 0;
+            for (; k < 4 && e.sum < best_e.sum; ++k) e.add(harmonic_energy(m, nt[k]));
+            if (k == 4 && detail::improves(best_e, e, keep_max)) best = int(i), best_e = e;
         }
         return best;
     }
@@ -176,16 +238,12 @@ struct harmonic_flip_spec {
     template <class Mesh>
     bool improves_44(const Mesh& m, const tet_tuple& t) const {
         const auto [a, b] = m.edge_vertices(t);
-        const index_t c = best_44(m, a, b);
-        if (c == invalid_index) return false;
-        const index_t third = m.face_vertices(t)[2];
-        if (third == c) return true;
-        // The same diagonal seen from its other end x_{i+2}.
         idas::detail::edge_ring r;
-        idas::detail::closed_edge_ring(m, a, b, r);
-        for (std::size_t i = 0; i < 4; ++i)
-            if (r.verts[i] == c) return r.verts[(i + 2) % 4] == third;
-        return false;
+        if (!detail::short_edge_ring(m, a, b, 4, r) || r.tets.size() != 4) return false;
+        const int i = best_44(m, a, b, r);
+        if (i < 0) return false;
+        const index_t third = m.face_vertices(t)[2];
+        return third == r.verts[i] || third == r.verts[i + 2];
     }
 
     /// 2-3 of the face (local face lf of tet t1, t2 across it): tets abcd and cbae become
@@ -200,8 +258,8 @@ struct harmonic_flip_spec {
         for (index_t x : m.tet_vertices(t2))
             if (x != a && x != b && x != c) e = x;
         detail::energy_sum old_e, new_e;
-        old_e.add(harmonic_energy(m, tv));
-        old_e.add(harmonic_energy(m, m.tet_vertices(t2)));
+        old_e.add(energy(m, t1));
+        old_e.add(energy(m, t2));
         new_e.add(harmonic_energy(m, {a, b, e, d}));
         if (!(new_e.sum < old_e.sum)) return false; // most faces stop here
         new_e.add(harmonic_energy(m, {b, c, e, d}));
@@ -213,7 +271,8 @@ struct harmonic_flip_spec {
     template <class Mesh>
     bool before(op::edge_swap_32, const Mesh& m, const tet_tuple& t) const {
         const auto [a, b] = m.edge_vertices(t);
-        return improves_32(m, a, b);
+        idas::detail::edge_ring r;
+        return detail::short_edge_ring(m, a, b, 3, r) && improves_32(m, a, b, r);
     }
     template <class Mesh>
     bool before(op::edge_swap_44, const Mesh& m, const tet_tuple& t) const {
@@ -225,30 +284,57 @@ struct harmonic_flip_spec {
         return t2 != invalid_index && improves_23(m, t.tid, t.local_face, t2);
     }
 
+    // ---- parallel: the smallest region each flip needs ----
+    // The executor holds the tuple's vertex and has checked the tuple, so its tet is frozen.
+    // Every writer of a tet holds all its vertices, so holding a vertex freezes its star.
+    // A flip reads and writes only the tets it replaces (a 3-2 or 4-4 swap: the tets around
+    // its edge; a 2-3 swap: the two tets of its face), looks up edges and faces in the stars
+    // of their vertices (find_edge / find_face / opposite_tet start at a held vertex), and
+    // its new tets have only those vertices; `renew` reads the stars of the new tets'
+    // vertices. So holding the vertices of the replaced tets is enough: 5 for 2-3 and 3-2,
+    // 6 for 4-4, against the hundreds of the closed stars.
+    template <class Op, class Mesh, class Claim>
+    bool lock_region(Op, const Mesh& m, const tet_tuple& t, Claim&& claim) const {
+        const auto& tv = m.tet_vertices(t.tid);
+        for (index_t x : tv)
+            if (!claim(x)) return false;
+        if constexpr (std::is_same_v<Op, op::face_swap_23>) {
+            // opposite_tet reads the star of a held face vertex.
+            const index_t t2 = m.connectivity().opposite_tet(t.tid, t.local_face);
+            if (t2 != invalid_index)
+                for (index_t x : m.tet_vertices(t2))
+                    if (!claim(x)) return false;
+        } else {
+            const auto [a, b] = m.edge_vertices(t);
+            for (index_t g : m.vertex_tets(a)) {
+                const auto& gv = m.tet_vertices(g);
+                if (!tet_local::contains(gv, b)) continue;
+                for (index_t x : gv)
+                    if (!claim(x)) return false;
+            }
+        }
+        return true;
+    }
+
     // ---- schedule ----
 
-    /// Candidates among a set of edges and faces, each pushed only if its flip improves
-    /// now: edges of valence 3 (3-2) and, in complete mode, of valence 4 (4-4, the better
-    /// of the two diagonals) and interior faces (2-3).
+    /// The candidate on edge ab, pushed only if its flip improves now: a 3-2 swap if ab
+    /// has three tets, in complete mode a 4-4 swap (the better diagonal) if it has four.
     template <class Mesh, class Push>
-    void push_edge(const Mesh& m, index_t g, index_t a, index_t b, std::size_t valence,
-                   Push& push) const {
-        if (valence == 3) {
-            if (improves_32(m, a, b)) push(op::edge_swap_32{}, m.tuple_at(g, a, b));
+    void push_edge(const Mesh& m, index_t a, index_t b, Push& push) const {
+        idas::detail::edge_ring r;
+        if (!detail::short_edge_ring(m, a, b, complete ? 4 : 3, r)) return;
+        if (r.tets.size() == 3) {
+            if (improves_32(m, a, b, r)) push(op::edge_swap_32{}, m.tuple_at(r.tets[0], a, b));
         } else if constexpr (complete) {
-            if (valence != 4) return;
-            // The tuple must name the chosen diagonal's end c: a tet of the edge with c
-            // whose face abc the tuple is on.
-            const index_t c = best_44(m, a, b);
-            if (c == invalid_index) return;
-            for (index_t h : m.vertex_tets(a)) {
-                const auto& hv = m.tet_vertices(h);
-                if (!tet_local::contains(hv, b) || !tet_local::contains(hv, c)) continue;
-                tet_tuple t = m.tuple_at(h, a, b);
-                if (m.face_vertices(t)[2] != c) t = m.switch_face(t);
-                push(op::edge_swap_44{}, t);
-                return;
-            }
+            if (r.tets.size() != 4) return;
+            const int i = best_44(m, a, b, r);
+            if (i < 0) return;
+            // The tuple must name the chosen diagonal's end c = x_i: tet i holds a, b, x_i.
+            const index_t c = r.verts[i];
+            tet_tuple t = m.tuple_at(r.tets[i], a, b);
+            if (m.face_vertices(t)[2] != c) t = m.switch_face(t);
+            push(op::edge_swap_44{}, t);
         }
     }
 
@@ -267,54 +353,50 @@ struct harmonic_flip_spec {
             }
         };
         boost::container::small_vector<face_seen, 128> faces;
-        {
-            for (index_t g : m.vertex_tets(a)) {
-                const auto& tv = m.tet_vertices(g);
-                for (index_t b : tv) {
-                    if (b <= a) continue;
-                    auto it = std::find_if(count.begin(), count.end(),
-                                           [&](const auto& x) { return x.first == b; });
-                    if (it == count.end())
-                        count.push_back({b, 1});
-                    else
-                        ++it->second;
-                }
-                if constexpr (complete) {
-                    const std::uint8_t i = tet_local::index_of(tv, a);
-                    for (std::uint8_t lf = 0; lf < 4; ++lf) {
-                        if (lf == i) continue;
-                        index_t x = invalid_index, y = invalid_index;
-                        for (std::uint8_t k = 0; k < 4; ++k)
-                            if (k != lf && k != i) (x == invalid_index ? x : y) = tv[k];
-                        if (x < a || y < a) continue;
-                        faces.push_back({std::pair<index_t, index_t>(std::minmax(x, y)), g, lf});
-                    }
-                }
-            }
-            for (const auto& [b, n] : count) {
-                if (n != 3 && !(complete && n == 4)) continue;
-                for (index_t g : m.vertex_tets(a))
-                    if (tet_local::contains(m.tet_vertices(g), b)) {
-                        push_edge(m, g, a, b, n, push);
-                        break;
-                    }
+        for (index_t g : m.vertex_tets(a)) {
+            const auto& tv = m.tet_vertices(g);
+            for (index_t b : tv) {
+                if (b <= a) continue;
+                auto it = std::find_if(count.begin(), count.end(),
+                                       [&](const auto& x) { return x.first == b; });
+                if (it == count.end())
+                    count.push_back({b, 1});
+                else
+                    ++it->second;
             }
             if constexpr (complete) {
-                // A face seen from two tets of a's star is interior.
-                std::sort(faces.begin(), faces.end());
-                for (std::size_t k = 0; k + 1 < faces.size(); ++k)
-                    if (faces[k].key == faces[k + 1].key) {
-                        if (improves_23(m, faces[k].tet, faces[k].lf, faces[k + 1].tet))
-                            push(op::face_swap_23{}, m.tuple_from_face(faces[k].tet, faces[k].lf));
-                        ++k;
-                    }
+                const std::uint8_t i = tet_local::index_of(tv, a);
+                for (std::uint8_t lf = 0; lf < 4; ++lf) {
+                    if (lf == i) continue;
+                    index_t x = invalid_index, y = invalid_index;
+                    for (std::uint8_t k = 0; k < 4; ++k)
+                        if (k != lf && k != i) (x == invalid_index ? x : y) = tv[k];
+                    if (x < a || y < a) continue;
+                    faces.push_back({std::pair<index_t, index_t>(std::minmax(x, y)), g, lf});
+                }
             }
+        }
+        for (const auto& [b, n] : count)
+            if (n == 3 || (complete && n == 4)) push_edge(m, a, b, push);
+        if constexpr (complete) {
+            // A face seen from two tets of a's star is interior.
+            std::sort(faces.begin(), faces.end());
+            for (std::size_t k = 0; k + 1 < faces.size(); ++k)
+                if (faces[k].key == faces[k + 1].key) {
+                    if (improves_23(m, faces[k].tet, faces[k].lf, faces[k + 1].tet))
+                        push(op::face_swap_23{}, m.tuple_from_face(faces[k].tet, faces[k].lf));
+                    ++k;
+                }
         }
     }
 
-    /// After a flip: the candidates among the new tets' edges and faces.
+    /// After a flip: cache the new tets' energies, then the candidates among their edges
+    /// and faces.
     template <class Op, class Mesh, class Push>
-    void renew(Op, const Mesh& m, const op_result<tet_tuple>& r, Push&& push) const {
+    void renew(Op, const Mesh& m, const op_result<tet_tuple>& r, Push&& push) {
+        for (const tet_tuple& c : r.cells)
+            if (c.tid < energies.size())
+                energies[c.tid] = harmonic_energy(m, m.tet_vertices(c.tid));
         boost::container::small_vector<std::pair<index_t, index_t>, 24> seen_edges;
         boost::container::small_vector<tri_indices, 24> seen_faces;
         for (const tet_tuple& c : r.cells) {
@@ -325,8 +407,7 @@ struct harmonic_flip_spec {
                 if (std::find(seen_edges.begin(), seen_edges.end(), key) != seen_edges.end())
                     continue;
                 seen_edges.push_back(key);
-                push_edge(m, c.tid, key.first, key.second,
-                          detail::edge_valence(m, key.first, key.second), push);
+                push_edge(m, key.first, key.second, push);
             }
             if constexpr (complete) {
                 for (std::uint8_t lf = 0; lf < 4; ++lf) {
@@ -355,82 +436,166 @@ struct harmonic_flip_spec {
     }
 };
 
+/// Complete-mode flips (2-3, 3-2, 4-4) seeded from the worst tets only: the edges and faces
+/// of tets whose energy exceeds `above` times the mean, instead of every edge and face
+/// (a scan that costs as much as a smoothing pass). Improvements then spread through
+/// `renew` as usual.
+struct harmonic_seeded_flip_spec : harmonic_flip_spec<harmonic_mode::complete> {
+    double above = 3;
+
+    template <class Mesh, class Push>
+    void initial(const Mesh& m, Push&& push) const {
+        double total = 0;
+        std::size_t n = 0;
+        for (index_t t = 0; t < m.tet_slots(); ++t)
+            if (m.tet_alive(t)) total += energies[t], ++n;
+        const double bar = n ? above * total / double(n) : 0.0;
+        for (index_t t = 0; t < m.tet_slots(); ++t) {
+            if (!m.tet_alive(t) || !(energies[t] > bar)) continue;
+            const auto& tv = m.tet_vertices(t);
+            for (std::uint8_t le = 0; le < 6; ++le) {
+                const auto ev = tet_local::edge_vertices[le];
+                push_edge(m, tv[ev[0]], tv[ev[1]], push);
+            }
+            for (std::uint8_t lf = 0; lf < 4; ++lf) {
+                const index_t t2 = m.connectivity().opposite_tet(t, lf);
+                if (t2 != invalid_index && improves_23(m, t, lf, t2))
+                    push(op::face_swap_23{}, m.tuple_from_face(t, lf));
+            }
+        }
+    }
+};
+
 /// The smoothing phase (complete mode): each interior vertex once, moved down the gradient
 /// of its star's energy.
 struct harmonic_smooth_spec {
     using operations = op_list<op::smooth_vertex>;
     bool keep_max = true;
     unsigned steps = 2; // gradient steps per vertex
+    unsigned tries = 2; // step lengths tried per step, halving from a fifth of the shortest edge
+    // smooth_vertex would test is_boundary_vertex (a sort of the link's edges) itself;
+    // `before` refuses boundary vertices from the star it gathers anyway (interior_star).
+    static constexpr bool allow_boundary_change = true;
 
     auto invariants() const { return invariant_set<positive_orientation>{}; }
 
-    /// E of one star tet as a function of the moving vertex p, with its gradient. (p, q1,
-    /// q2, q3) is positively oriented. With n = (q2-q1)x(q3-q1): 6V = (q1-p).n, so
-    /// grad(6V) = -n; for a face (p, x, y), grad |(x-p)x(y-p)|^2 = 2 (x-y) x ((x-p)x(y-p)).
-    static double energy_and_gradient(const vec3& p, const vec3& q1, const vec3& q2, const vec3& q3,
-                                      vec3& grad) noexcept {
-        const vec3 n = cross(q2 - q1, q3 - q1);
-        const double D = dot(q1 - p, n);
+    /// A star tet (p, q1, q2, q3), positively oriented, with what does not depend on the
+    /// moving vertex p: n = (q2-q1)x(q3-q1) (so 6V = q1.n - p.n) and |n|^2 (twice the
+    /// opposite face's area, squared).
+    struct star_tet {
+        vec3 q1, q2, q3, n;
+        double nn, q1n;
+    };
+
+    /// E of a star tet with the moving vertex at p (+infinity unless positive volume).
+    static double energy(const vec3& p, const star_tet& t) noexcept {
+        const double D = t.q1n - dot(p, t.n);
         if (!(D > 0)) return std::numeric_limits<double>::infinity();
-        const vec3 c1 = cross(q1 - p, q2 - p), c2 = cross(q2 - p, q3 - p),
-                   c3 = cross(q3 - p, q1 - p);
-        const double S = squared_norm(n) + squared_norm(c1) + squared_norm(c2) + squared_norm(c3);
-        const vec3 gS = (cross(q1 - q2, c1) + cross(q2 - q3, c2) + cross(q3 - q1, c3)) * 2.0;
+        const vec3 a = t.q1 - p, b = t.q2 - p, c = t.q3 - p;
+        return (t.nn + squared_norm(cross(a, b)) + squared_norm(cross(b, c)) +
+                squared_norm(cross(c, a))) /
+               (6.0 * D);
+    }
+
+    /// E and its gradient in p. For a face (p, x, y), grad |(x-p)x(y-p)|^2 = 2 (x-y) x
+    /// ((x-p)x(y-p)); grad(6V) = -n.
+    static double energy_and_gradient(const vec3& p, const star_tet& t, vec3& grad) noexcept {
+        const double D = t.q1n - dot(p, t.n);
+        if (!(D > 0)) return std::numeric_limits<double>::infinity();
+        const vec3 a = t.q1 - p, b = t.q2 - p, c = t.q3 - p;
+        const vec3 c1 = cross(a, b), c2 = cross(b, c), c3 = cross(c, a);
+        const double S = t.nn + squared_norm(c1) + squared_norm(c2) + squared_norm(c3);
+        const vec3 gS =
+            (cross(t.q1 - t.q2, c1) + cross(t.q2 - t.q3, c2) + cross(t.q3 - t.q1, c3)) * 2.0;
         // E = S / (6 D); grad D = -n.
-        grad = (gS * D + n * S) / (6.0 * D * D);
+        grad = (gS * D + t.n * S) / (6.0 * D * D);
         return S / (6.0 * D);
     }
 
-    /// The other three vertices of each star tet, ordered so that (v, q1, q2, q3) is an
-    /// even permutation of the stored order (so positively oriented).
-    using star = boost::container::small_vector<std::array<index_t, 3>, 48>;
+    static star_tet make_star_tet(const vec3& q1, const vec3& q2, const vec3& q3) noexcept {
+        const vec3 n = cross(q2 - q1, q3 - q1);
+        return {q1, q2, q3, n, squared_norm(n), dot(q1, n)};
+    }
+
+    /// E of the tet (p, q1, q2, q3) with its gradient in p (tests use this form).
+    static double energy_and_gradient(const vec3& p, const vec3& q1, const vec3& q2, const vec3& q3,
+                                      vec3& grad) noexcept {
+        return energy_and_gradient(p, make_star_tet(q1, q2, q3), grad);
+    }
+
+    /// The star of v: per tet the other three vertices' positions, ordered so that (v, q1,
+    /// q2, q3) is an even permutation of the stored order (so positively oriented).
+    /// Returns false for a boundary vertex: its link, a triangulated sphere (T triangles,
+    /// V = 2 + T / 2 vertices by Euler) for an interior vertex, is a disk with b >= 3
+    /// boundary edges (V = 1 + (T + b) / 2) on the hull, so counting the distinct link
+    /// vertices tells them apart.
+    using star = boost::container::small_vector<star_tet, 48>;
     template <class Mesh>
-    static void gather(const Mesh& m, index_t v, star& s) {
+    static bool gather_interior(const Mesh& m, index_t v, star& s) {
         static constexpr std::uint8_t perm[4][3] = {{1, 2, 3}, {0, 3, 2}, {3, 0, 1}, {2, 1, 0}};
+        // Distinct link vertices, counted with a per-thread stamp per vertex (a linear
+        // search of the link cost as much as the rest of the gather).
+        thread_local std::vector<std::uint32_t> stamp;
+        thread_local std::uint32_t now = 0;
+        if (stamp.size() < m.vertex_slots()) stamp.assign(m.vertex_slots(), 0), now = 0;
+        if (++now == 0) std::fill(stamp.begin(), stamp.end(), 0), now = 1;
+        std::size_t link = 0;
+        for (index_t g : m.vertex_tets(v)) {
+            const auto& tv = m.tet_vertices(g);
+            for (index_t x : tv)
+                if (x != v && stamp[x] != now) stamp[x] = now, ++link;
+        }
+        if (2 * link != m.vertex_tets(v).size() + 4) return false;
+        const auto pos = m.positions();
         s.clear();
         for (index_t g : m.vertex_tets(v)) {
             const auto& tv = m.tet_vertices(g);
             const std::uint8_t i = tet_local::index_of(tv, v);
-            s.push_back({tv[perm[i][0]], tv[perm[i][1]], tv[perm[i][2]]});
+            s.push_back(
+                make_star_tet(pos[tv[perm[i][0]]], pos[tv[perm[i][1]]], pos[tv[perm[i][2]]]));
         }
+        return true;
     }
 
-    template <class Mesh>
-    static detail::energy_sum star_energy(const Mesh& m, const star& s, const vec3& p) {
+    /// The star's energy with the vertex at q if that improves on `current`; else nullopt,
+    /// as soon as the partial sum or (keep_max) one tet shows it cannot.
+    std::optional<detail::energy_sum> trial(const star& s, const vec3& q,
+                                            const detail::energy_sum& current) const {
         detail::energy_sum e;
-        const auto pos = m.positions();
-        for (const auto& q : s) e.add(harmonic_energy(p, pos[q[0]], pos[q[1]], pos[q[2]]));
+        const double limit = current.sum * (1.0 - 1e-12);
+        for (const auto& t : s) {
+            e.add(energy(q, t));
+            if (!(e.sum < limit) || (keep_max && e.max > current.max)) return std::nullopt;
+        }
         return e;
     }
 
     template <class Mesh>
     std::optional<vec3> before(op::smooth_vertex, const Mesh& m, const tet_tuple& t) const {
-        const index_t v = t.vid;
         star s;
-        gather(m, v, s);
-        const auto pos = m.positions();
-        vec3 p = pos[v];
-        const detail::energy_sum start = star_energy(m, s, p);
-        detail::energy_sum current = start;
+        if (!gather_interior(m, t.vid, s)) return std::nullopt; // the hull stays put
+        vec3 p = m.positions()[t.vid];
         double shortest = std::numeric_limits<double>::infinity();
-        for (const auto& q : s) shortest = std::min(shortest, squared_norm(pos[q[0]] - p));
+        for (const auto& x : s) shortest = std::min(shortest, squared_norm(x.q1 - p));
         shortest = std::sqrt(shortest);
+        detail::energy_sum start, current;
         for (unsigned step = 0; step < steps; ++step) {
+            // The gradient, and (first step) the star's energy, in one pass.
             vec3 g{};
-            for (const auto& q : s) {
+            detail::energy_sum here;
+            for (const auto& x : s) {
                 vec3 gi;
-                energy_and_gradient(p, pos[q[0]], pos[q[1]], pos[q[2]], gi);
+                here.add(energy_and_gradient(p, x, gi));
                 g += gi;
             }
+            if (step == 0) start = current = here;
             const double gn = norm(g);
-            if (!(gn > 0)) break;
-            // First try a move of a fifth of the shortest edge at p; halve until it helps.
+            if (!(gn > 0) || !(start.sum < std::numeric_limits<double>::infinity())) break;
             double len = 0.2 * shortest;
             bool moved = false;
-            for (int k = 0; k < 5 && !moved; ++k, len *= 0.5) {
+            for (unsigned k = 0; k < tries && !moved; ++k, len *= 0.5) {
                 const vec3 q = p - g * (len / gn);
-                const detail::energy_sum e = star_energy(m, s, q);
-                if (detail::improves(current, e, keep_max)) p = q, current = e, moved = true;
+                if (const auto e = trial(s, q, current)) p = q, current = *e, moved = true;
             }
             if (!moved) break;
         }
@@ -447,7 +612,8 @@ struct harmonic_smooth_spec {
 
 struct harmonic_options {
     harmonic_mode mode = harmonic_mode::complete;
-    unsigned rounds = 2; // complete mode: smoothing pass + flips, this many times
+    unsigned rounds = 2;   // complete mode: smoothing pass + seeded flips, this many times
+    double seed_above = 8; // complete mode: flips seeded from tets with E above this x mean
     bool keep_max = true;
     exec_options exec{};
 };
@@ -466,6 +632,7 @@ struct harmonic_triangulation {
     template <harmonic_mode M>
     using flips = executor<harmonic_flip_spec<M>, Mesh, Lock, queue::fifo, Partition>;
     using smooth = executor<harmonic_smooth_spec, Mesh, Lock, queue::fifo, Partition>;
+    using seeded = executor<harmonic_seeded_flip_spec, Mesh, Lock, queue::fifo, Partition>;
 
     static harmonic_report run(Mesh& m, const harmonic_options& o = {}) {
         const auto start = std::chrono::steady_clock::now();
@@ -475,18 +642,21 @@ struct harmonic_triangulation {
             (&counter == &rep.flips ? rep.flip_seconds : rep.smooth_seconds) += r.seconds;
             rep.lock_failures += r.lock_failures, rep.deferred_to_serial += r.deferred_to_serial;
         };
-        if (o.mode == harmonic_mode::reduced) {
-            harmonic_flip_spec<harmonic_mode::reduced> spec{o.keep_max};
-            add(flips<harmonic_mode::reduced>::run(m, spec, o.exec), rep.flips);
-        } else {
-            harmonic_flip_spec<harmonic_mode::complete> spec{o.keep_max};
-            add(flips<harmonic_mode::complete>::run(m, spec, o.exec), rep.flips);
+        // Both modes start with 3-2 swaps to convergence: they are the cheapest flips (the
+        // candidates are the valence-3 edges) and do most of the work. Complete mode then
+        // alternates smoothing passes, which lower the energy most, with all three flips
+        // seeded from the tets still far above the mean.
+        harmonic_flip_spec<harmonic_mode::reduced> reduced{o.keep_max};
+        add(flips<harmonic_mode::reduced>::run(m, reduced, o.exec), rep.flips);
+        if (o.mode == harmonic_mode::complete) {
             for (unsigned round = 0; round < o.rounds; ++round) {
                 harmonic_smooth_spec smoothing;
                 smoothing.keep_max = o.keep_max;
                 const run_report sr = smooth::run(m, smoothing, o.exec);
                 add(sr, rep.smoothed);
-                const run_report fr = flips<harmonic_mode::complete>::run(m, spec, o.exec);
+                harmonic_seeded_flip_spec seeds;
+                seeds.keep_max = o.keep_max, seeds.above = o.seed_above;
+                const run_report fr = seeded::run(m, seeds, o.exec);
                 add(fr, rep.flips);
                 if (sr.succeeded == 0 && fr.succeeded == 0) break;
             }
