@@ -3,7 +3,8 @@
 // building the tet_mesh, and of flipping; tets and mean harmonic index before and after.
 //
 //   bench_harmonic [--points N] [--seed S] [--input FILE] [--mode reduced|complete]
-//                  [--threads T] [--rounds R] [--no-keep-max] [--delaunay-only]
+//                  [--threads T] [--rounds R] [--seed-above X] [--no-keep-max]
+//                  [--delaunay-only]
 #if IDAS_BENCH_WITH_CGAL
 #include <idas/algorithms/harmonic_triangulation.hpp>
 #include <idas/cgal/delaunay.hpp>
@@ -34,6 +35,7 @@ int main(int argc, char** argv) {
     std::uint64_t seed = 1;
     std::string input, mode = "complete";
     unsigned threads = 1, rounds = 2;
+    double seed_above = idas::algorithms::harmonic_options{}.seed_above;
     bool keep_max = true, delaunay_only = false;
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
@@ -56,6 +58,8 @@ int main(int argc, char** argv) {
             threads = static_cast<unsigned>(std::stoul(value()));
         else if (a == "--rounds")
             rounds = static_cast<unsigned>(std::stoul(value()));
+        else if (a == "--seed-above")
+            seed_above = std::stod(value());
         else if (a == "--no-keep-max")
             keep_max = false;
         else if (a == "--delaunay-only")
@@ -90,6 +94,7 @@ int main(int argc, char** argv) {
         o.mode = mode == "reduced" ? idas::algorithms::harmonic_mode::reduced
                                    : idas::algorithms::harmonic_mode::complete;
         o.rounds = rounds;
+        o.seed_above = seed_above;
         o.keep_max = keep_max;
         o.exec.threads = threads;
         const double cpu0 = cpu_seconds();
@@ -97,14 +102,15 @@ int main(int argc, char** argv) {
         const double flip_cpu = cpu_seconds() - cpu0;
         const auto after = idas::algorithms::harmonic_statistics(m);
         std::printf(
-            "{\"points\":%zu,\"mode\":\"%s\",\"threads\":%u,\"rounds\":%u,\"keep_max\":%s,"
+            "{\"points\":%zu,\"mode\":\"%s\",\"threads\":%u,\"rounds\":%u,\"seed_above\":%g,"
+            "\"keep_max\":%s,"
             "\"delaunay_seconds\":%.3f,\"build_seconds\":%.3f,\"flip_seconds\":%.3f,"
             "\"flips_only_seconds\":%.3f,\"smooth_seconds\":%.3f,\"flip_cpu_seconds\":%.3f,"
             "\"tets_before\":%zu,\"tets_after\":%zu,\"mean_index_before\":%.4f,"
             "\"mean_index_after\":%.4f,\"max_energy_before\":%.4g,\"max_energy_after\":%.4g,"
             "\"flips\":%llu,\"smoothed\":%llu,\"attempted\":%llu,\"lock_failures\":%llu,"
             "\"deferred_to_serial\":%llu}\n",
-            points.size(), mode.c_str(), threads, rounds, keep_max ? "true" : "false",
+            points.size(), mode.c_str(), threads, rounds, seed_above, keep_max ? "true" : "false",
             delaunay_seconds, build_seconds, rep.seconds, rep.flip_seconds, rep.smooth_seconds,
             flip_cpu, before.tets, after.tets, before.mean_index, after.mean_index,
             before.max_energy, after.max_energy, static_cast<unsigned long long>(rep.flips),

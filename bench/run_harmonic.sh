@@ -91,7 +91,10 @@ print()
 for mode in ["reduced", "complete"]:
     a, b = best.get(mode + "-1"), best.get(mode + "-2")
     if a and b:
-        print(f"- {mode}: 2-thread speedup of flipping {a[0] / b[0]:.2f}x")
+        print(f"- {mode}: 2-thread speedup of flipping {a[0] / b[0]:.2f}x "
+              f"(flip CPU seconds {a[1]['flip_cpu_seconds']:.2f} on 1 thread, "
+              f"{b[1]['flip_cpu_seconds']:.2f} on 2; {b[1]['lock_failures']:,} lock failures, "
+              f"{b[1]['deferred_to_serial']:,} entries deferred to the serial pass)")
 if "complete-1" in best:
     print(f"- complete serial flipping / CGAL Delaunay of the same points: "
           f"{best['complete-1'][0] / cgal:.2f}")

@@ -117,4 +117,71 @@ TEST_CASE("harmonic complete on 10k Gaussian points: valid, better, deterministi
     CHECK(T1 == T2);
 }
 
+TEST_CASE("harmonic flips: cached energies stay exact, lock regions are the flipped tets") {
+    auto m = test::delaunay_mesh(io::gaussian_points(3000, 9));
+    using spec_t = harmonic_flip_spec<harmonic_mode::complete>;
+    spec_t spec;
+    const auto r = executor<spec_t, tet_mesh<>, lock::vertex_try_lock, queue::fifo>::run(m, spec);
+    REQUIRE(r.succeeded > 0);
+    // Every flip's renew recorded its new tets' energies: the cache matches the mesh.
+    std::size_t checked = 0, wrong = 0;
+    for (index_t t = 0; t < m.tet_slots() && t < spec.energies.size(); ++t)
+        if (m.tet_alive(t)) {
+            ++checked;
+            wrong += spec.energies[t] == harmonic_energy(m, m.tet_vertices(t)) ? 0 : 1;
+        }
+    CHECK(checked == m.n_tets());
+    CHECK(wrong == 0);
+
+    // The region a flip claims: exactly the vertices of the tets it replaces.
+    const auto region = [&](auto op, const tet_tuple& t) {
+        std::vector<index_t> held;
+        const bool ok = spec.lock_region(op, m, t, [&](index_t v) {
+            if (std::find(held.begin(), held.end(), v) == held.end()) held.push_back(v);
+            return true;
+        });
+        REQUIRE(ok);
+        std::sort(held.begin(), held.end());
+        return held;
+    };
+    const auto vertices_of = [&](std::initializer_list<index_t> tets) {
+        std::vector<index_t> out;
+        for (index_t g : tets)
+            for (index_t v : m.tet_vertices(g)) out.push_back(v);
+        std::sort(out.begin(), out.end());
+        out.erase(std::unique(out.begin(), out.end()), out.end());
+        return out;
+    };
+    bool seen3 = false, seen4 = false, seen_face = false;
+    for (index_t t = 0; t < m.tet_slots() && !(seen3 && seen4 && seen_face); ++t) {
+        if (!m.tet_alive(t)) continue;
+        const auto& tv = m.tet_vertices(t);
+        const tet_tuple e = m.tuple_at(t, tv[0], tv[1]);
+        idas::detail::edge_ring ring;
+        if (idas::detail::closed_edge_ring(m, tv[0], tv[1], ring) && ring.tets.size() <= 4) {
+            std::vector<index_t> want;
+            if (ring.tets.size() == 3)
+                want = vertices_of({ring.tets[0], ring.tets[1], ring.tets[2]}), seen3 = true;
+            else if (ring.tets.size() == 4)
+                want = vertices_of({ring.tets[0], ring.tets[1], ring.tets[2], ring.tets[3]}),
+                seen4 = true;
+            if (!want.empty()) {
+                CHECK(region(op::edge_swap_32{}, e) == want);
+                CHECK(region(op::edge_swap_44{}, e) == want);
+                CHECK(want.size() == ring.tets.size() + 2);
+            }
+        }
+        const index_t t2 = m.connectivity().opposite_tet(t, 0);
+        if (t2 != invalid_index && !seen_face) {
+            const auto got = region(op::face_swap_23{}, m.tuple_from_face(t, 0));
+            CHECK(got == vertices_of({t, t2}));
+            CHECK(got.size() == 5);
+            seen_face = true;
+        }
+    }
+    CHECK(seen3);
+    CHECK(seen4);
+    CHECK(seen_face);
+}
+
 #endif // IDAS_HAS_CGAL

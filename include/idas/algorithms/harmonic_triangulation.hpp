@@ -441,7 +441,11 @@ struct harmonic_flip_spec {
 /// (a scan that costs as much as a smoothing pass). Improvements then spread through
 /// `renew` as usual.
 struct harmonic_seeded_flip_spec : harmonic_flip_spec<harmonic_mode::complete> {
-    double above = 3;
+    double above = 8;
+
+    // Hidden, so that parallel runs (which prefer initial_at) seed through `initial` too.
+    template <class Mesh, class Push>
+    void initial_at(const Mesh&, index_t, Push&&) const = delete;
 
     template <class Mesh, class Push>
     void initial(const Mesh& m, Push&& push) const {
