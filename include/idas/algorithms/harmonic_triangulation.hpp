@@ -111,6 +111,34 @@ inline bool improves(const energy_sum& before, const energy_sum& after, bool kee
     return !keep_max || after.max <= before.max;
 }
 
+/// Per-thread marks on vertices, for counting distinct neighbours in a star without a
+/// search: a vertex is marked in the current round iff stamp == now (a linear search of
+/// the star's vertices cost as much as everything else done with them).
+struct vertex_marks {
+    std::vector<std::uint32_t> stamp;
+    std::vector<std::uint8_t> count;
+    std::uint32_t now = 0;
+
+    /// Starts a round on a mesh of n vertex slots: nothing marked.
+    void start(std::size_t n) {
+        if (stamp.size() < n) stamp.assign(n, 0), count.assign(n, 0), now = 0;
+        if (++now == 0) std::fill(stamp.begin(), stamp.end(), 0), now = 1;
+    }
+    /// Marks v (count 1) and returns true the first time in this round; else counts it.
+    bool mark(index_t v) noexcept {
+        if (stamp[v] == now) {
+            ++count[v];
+            return false;
+        }
+        stamp[v] = now, count[v] = 1;
+        return true;
+    }
+    static vertex_marks& local() {
+        thread_local vertex_marks marks;
+        return marks;
+    }
+};
+
 /// The ring of edge ab (as detail::closed_edge_ring) if it is closed and has at most
 /// `max_tets` tets; else false. Scans the smaller of the two stars and gives up as soon as
 /// the edge has too many tets, so testing the edges of new tets for 3-2 and 4-4 swaps
@@ -342,7 +370,10 @@ struct harmonic_flip_spec {
     /// needed): edges ab and faces abc whose smallest vertex is a.
     template <class Mesh, class Push>
     void initial_at(const Mesh& m, index_t a, Push&& push) const {
-        boost::container::small_vector<std::pair<index_t, index_t>, 64> count; // (b, tets)
+        // The b > a of edges ab, and (in the marks) how many tets each edge has.
+        auto& marks = detail::vertex_marks::local();
+        marks.start(m.vertex_slots());
+        boost::container::small_vector<index_t, 32> ends;
         // A face (x, y) with smallest vertex a, and the tet and local face it was seen from.
         struct face_seen {
             std::pair<index_t, index_t> key;
@@ -355,15 +386,8 @@ struct harmonic_flip_spec {
         boost::container::small_vector<face_seen, 128> faces;
         for (index_t g : m.vertex_tets(a)) {
             const auto& tv = m.tet_vertices(g);
-            for (index_t b : tv) {
-                if (b <= a) continue;
-                auto it = std::find_if(count.begin(), count.end(),
-                                       [&](const auto& x) { return x.first == b; });
-                if (it == count.end())
-                    count.push_back({b, 1});
-                else
-                    ++it->second;
-            }
+            for (index_t b : tv)
+                if (b > a && marks.mark(b)) ends.push_back(b);
             if constexpr (complete) {
                 const std::uint8_t i = tet_local::index_of(tv, a);
                 for (std::uint8_t lf = 0; lf < 4; ++lf) {
@@ -376,8 +400,8 @@ struct harmonic_flip_spec {
                 }
             }
         }
-        for (const auto& [b, n] : count)
-            if (n == 3 || (complete && n == 4)) push_edge(m, a, b, push);
+        for (index_t b : ends)
+            if (marks.count[b] == 3 || (complete && marks.count[b] == 4)) push_edge(m, a, b, push);
         if constexpr (complete) {
             // A face seen from two tets of a's star is interior.
             std::sort(faces.begin(), faces.end());
@@ -537,18 +561,12 @@ struct harmonic_smooth_spec {
     template <class Mesh>
     static bool gather_interior(const Mesh& m, index_t v, star& s) {
         static constexpr std::uint8_t perm[4][3] = {{1, 2, 3}, {0, 3, 2}, {3, 0, 1}, {2, 1, 0}};
-        // Distinct link vertices, counted with a per-thread stamp per vertex (a linear
-        // search of the link cost as much as the rest of the gather).
-        thread_local std::vector<std::uint32_t> stamp;
-        thread_local std::uint32_t now = 0;
-        if (stamp.size() < m.vertex_slots()) stamp.assign(m.vertex_slots(), 0), now = 0;
-        if (++now == 0) std::fill(stamp.begin(), stamp.end(), 0), now = 1;
+        // Distinct link vertices.
+        auto& marks = detail::vertex_marks::local();
+        marks.start(m.vertex_slots());
         std::size_t link = 0;
-        for (index_t g : m.vertex_tets(v)) {
-            const auto& tv = m.tet_vertices(g);
-            for (index_t x : tv)
-                if (x != v && stamp[x] != now) stamp[x] = now, ++link;
-        }
+        for (index_t g : m.vertex_tets(v))
+            for (index_t x : m.tet_vertices(g)) link += x != v && marks.mark(x) ? 1 : 0;
         if (2 * link != m.vertex_tets(v).size() + 4) return false;
         const auto pos = m.positions();
         s.clear();
