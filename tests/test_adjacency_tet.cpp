@@ -17,43 +17,7 @@
 using namespace idas;
 using adjacency_mesh = tet_mesh<backend::adjacency_tet>;
 
-namespace {
-
-/// Every link and every star of `m` against indexed_tet built from m's live tets (whose
-/// adjacency is searched, not stored). Returns the number of mismatches.
-std::size_t mismatches_against_search(const adjacency_mesh& m) {
-    const auto& c = m.connectivity();
-    std::vector<index_t> slot_of; // indexed tet -> adjacency slot
-    std::vector<index_t> index_of(m.tet_slots(), invalid_index);
-    std::vector<tet_indices> T;
-    for (index_t t = 0; t < m.tet_slots(); ++t)
-        if (c.tet_alive(t)) {
-            index_of[t] = index_t(T.size());
-            slot_of.push_back(t);
-            T.push_back(c.tet_vertices(t));
-        }
-    backend::indexed_tet ix;
-    ix.build(m.vertex_slots(), T);
-    std::size_t bad = 0;
-    for (index_t i = 0; i < T.size(); ++i)
-        for (std::uint8_t lf = 0; lf < 4; ++lf) {
-            const index_t want = ix.opposite_tet(i, lf);
-            const index_t got = c.opposite_tet(slot_of[i], lf);
-            bad += (want == invalid_index ? got != invalid_index : got != slot_of[want]) ? 1 : 0;
-        }
-    for (index_t v = 0; v < m.vertex_slots(); ++v) {
-        std::vector<index_t> want;
-        for (index_t i : ix.vertex_tets(v)) want.push_back(slot_of[i]);
-        const auto star = c.vertex_tets(v);
-        std::vector<index_t> got(star.begin(), star.end());
-        std::sort(want.begin(), want.end());
-        std::sort(got.begin(), got.end());
-        bad += want != got ? 1 : 0;
-    }
-    return bad;
-}
-
-} // namespace
+using test::mismatches_against_search;
 
 TEST_CASE("adjacency tet: links and stars match a search through random edits") {
     auto m = test::cube<adjacency_mesh>(4, true, 0.15, 31);
@@ -183,3 +147,24 @@ TEST_CASE("adjacency tet: harmonic reduced on Gaussian points matches the indexe
     CHECK(T1 == T2);
 }
 #endif
+
+TEST_CASE("adjacency tet: a star bigger than the walk's buffer is walked completely") {
+    // 300 tets around one edge: both its ends have 300 tets.
+    const int n = 300;
+    std::vector<vec3> V = {{0, 0, 1}, {0, 0, -1}};
+    for (int i = 0; i < n; ++i) {
+        const double phi = 2 * std::numbers::pi * i / n;
+        V.push_back({std::cos(phi), std::sin(phi), 0});
+    }
+    std::vector<tet_indices> T;
+    for (int i = 0; i < n; ++i) {
+        tet_indices t = {0, 1, index_t(2 + i), index_t(2 + (i + 1) % n)};
+        test::orient_positively(V, t);
+        T.push_back(t);
+    }
+    adjacency_mesh m(V, T);
+    CHECK(m.vertex_tets(0).size() == n);
+    CHECK(m.vertex_tets(1).size() == n);
+    CHECK(mismatches_against_search(m) == 0);
+    CHECK_FALSE(find_inconsistency(m, true).has_value());
+}

@@ -112,7 +112,7 @@ $EndElements
 
 } // namespace
 
-TEST_CASE("msh: round trips in all four variants are exact") {
+TEST_CASE_TEMPLATE("msh: round trips in all four variants are exact", Mesh, IDAS_TET_MESHES) {
     const volume v = cube_volume(3);
     for (const auto& var : variants) {
         INFO(std::string(var.name));
@@ -132,7 +132,7 @@ TEST_CASE("msh: round trips in all four variants are exact") {
         }
         CHECK(r.tets == v.tets);
         // Into a mesh and out again, through a stream this time.
-        tet_mesh<> m(r.vertices, r.tets);
+        Mesh m(r.vertices, r.tets);
         auto [V, T] = m.to_arrays();
         std::stringstream s;
         write_msh(s, volume{V, T, 0}, var.version, var.enc);
@@ -150,7 +150,8 @@ TEST_CASE("msh: round trips in all four variants are exact") {
     }
 }
 
-TEST_CASE("msh: files written by Gmsh read the same in all four variants") {
+TEST_CASE_TEMPLATE("msh: files written by Gmsh read the same in all four variants", Mesh,
+                   IDAS_TET_MESHES) {
     volume first;
     for (const char* name : {"gmsh_sphere_22_ascii.msh", "gmsh_sphere_22_binary.msh",
                              "gmsh_sphere_41_ascii.msh", "gmsh_sphere_41_binary.msh"}) {
@@ -166,7 +167,7 @@ TEST_CASE("msh: files written by Gmsh read the same in all four variants") {
         REQUIRE(v.vertices.size() == first.vertices.size());
         for (std::size_t i = 0; i < v.vertices.size(); ++i)
             CHECK(norm(v.vertices[i] - first.vertices[i]) < 1e-15);
-        tet_mesh<> m(v.vertices, v.tets);
+        Mesh m(v.vertices, v.tets);
         CHECK_FALSE(find_inconsistency(m, true).has_value());
         CHECK(euler_characteristic(m) == 1);
         const auto topo = boundary_topology(m);

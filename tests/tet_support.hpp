@@ -9,6 +9,7 @@
 
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <optional>
@@ -107,6 +108,36 @@ Mesh edge_ring_mesh(int n, double wobble = 0) {
         T.push_back(t);
     }
     return {V, T};
+}
+
+/// Every link and every star of a mesh with face links against indexed_tet built from its
+/// live tets (whose adjacency is searched, not stored). Returns the number of mismatches.
+template <class Mesh>
+std::size_t mismatches_against_search(const Mesh& m) {
+    const auto& c = m.connectivity();
+    std::vector<index_t> slot_of; // indexed tet -> slot in m
+    std::vector<tet_indices> T;
+    for (index_t t = 0; t < m.tet_slots(); ++t)
+        if (c.tet_alive(t)) slot_of.push_back(t), T.push_back(c.tet_vertices(t));
+    backend::indexed_tet ix;
+    ix.build(m.vertex_slots(), T);
+    std::size_t bad = 0;
+    for (index_t i = 0; i < T.size(); ++i)
+        for (std::uint8_t lf = 0; lf < 4; ++lf) {
+            const index_t want = ix.opposite_tet(i, lf);
+            const index_t got = c.opposite_tet(slot_of[i], lf);
+            bad += (want == invalid_index ? got != invalid_index : got != slot_of[want]) ? 1 : 0;
+        }
+    for (index_t v = 0; v < m.vertex_slots(); ++v) {
+        std::vector<index_t> want;
+        for (index_t i : ix.vertex_tets(v)) want.push_back(slot_of[i]);
+        const auto star = c.vertex_tets(v);
+        std::vector<index_t> got(star.begin(), star.end());
+        std::sort(want.begin(), want.end());
+        std::sort(got.begin(), got.end());
+        bad += want != got ? 1 : 0;
+    }
+    return bad;
 }
 
 /// Geometry-aware spec: midpoint splits and collapses, Laplacian smoothing, attributes

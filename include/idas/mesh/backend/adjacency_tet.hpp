@@ -521,37 +521,51 @@ private:
         return tet_of(r) < tets_.size() && tet_alive(tet_of(r)) && link(r) == invalid_index;
     }
 
-    /// Breadth-first walk of v's star from its anchor, across the faces holding v. A small
-    /// open-addressing set remembers the tets seen (stars of a few dozen tets).
+    /// Breadth-first walk of v's star from its anchor, across the faces holding v, in a
+    /// local buffer; a small open-addressing set remembers the tets seen (stars have a
+    /// few dozen tets). A star too big for the buffer finishes in `out` with plain searches.
     template <class Out>
     void collect_star(index_t v, Out& out) const {
         out.clear();
         const index_t a = anchor_[v];
         if (a == invalid_index) return;
-        constexpr std::size_t table = 256, mask = table - 1;
+        constexpr std::size_t table = 256, mask = table - 1, buffered = table / 2;
         std::array<index_t, table> seen;
         seen.fill(invalid_index);
-        const auto mark = [&](index_t g) {
-            if (out.size() >= table / 2) { // a huge star: plain search
-                if (std::find(out.begin(), out.end(), g) != out.end()) return false;
-                out.push_back(g);
-                return true;
-            }
+        const auto first_visit = [&](index_t g) {
             for (std::size_t h = (g * 2654435761u) >> 24;; h = (h + 1) & mask) {
                 if (seen[h] == g) return false;
-                if (seen[h] == invalid_index) {
-                    seen[h] = g;
-                    out.push_back(g);
-                    return true;
-                }
+                if (seen[h] == invalid_index) return seen[h] = g, true;
             }
         };
-        mark(a);
-        for (std::size_t i = 0; i < out.size(); ++i) {
-            const tet_record& r = tets_[out[i]];
+        std::array<index_t, buffered> buf;
+        std::size_t n = 1, i = 0;
+        buf[0] = a;
+        first_visit(a);
+        for (; i < n; ++i) {
+            const tet_record& r = tets_[buf[i]];
             for (index_t k = 0; k < 4; ++k) {
                 if (r.v[k] == v || r.opp[k] == invalid_index) continue;
-                mark(tet_of(r.opp[k]));
+                const index_t g = tet_of(r.opp[k]);
+                if (!first_visit(g)) continue;
+                if (n == buffered) { // (g is found again below)
+                    out.assign(buf.begin(), buf.end());
+                    return collect_big_star(v, i, out);
+                }
+                buf[n++] = g;
+            }
+        }
+        out.assign(buf.begin(), buf.begin() + std::ptrdiff_t(n));
+    }
+    /// The rest of a big star's walk, from out[i] on.
+    template <class Out>
+    void collect_big_star(index_t v, std::size_t i, Out& out) const {
+        for (; i < out.size(); ++i) {
+            const tet_record r = tets_[out[i]];
+            for (index_t k = 0; k < 4; ++k) {
+                if (r.v[k] == v || r.opp[k] == invalid_index) continue;
+                const index_t g = tet_of(r.opp[k]);
+                if (std::find(out.begin(), out.end(), g) == out.end()) out.push_back(g);
             }
         }
     }
