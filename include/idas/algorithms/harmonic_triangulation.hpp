@@ -500,7 +500,7 @@ struct harmonic_smooth_spec {
     using operations = op_list<op::smooth_vertex>;
     bool keep_max = true;
     unsigned steps = 2; // gradient steps per vertex
-    unsigned tries = 2; // step lengths tried per step, halving from a fifth of the shortest edge
+    unsigned tries = 1; // step lengths tried per step, halving from a fifth of the shortest edge
     // smooth_vertex would test is_boundary_vertex (a sort of the link's edges) itself;
     // `before` refuses boundary vertices from the star it gathers anyway (interior_star).
     static constexpr bool allow_boundary_change = true;
