@@ -95,6 +95,33 @@ TEST_CASE_TEMPLATE("parallel remeshing: bunny and blub on 2 and 8 threads", Mesh
     check_remesh<Mesh>("blub.obj", 0.01, 8);
 }
 
+TEST_CASE_TEMPLATE("edges found per vertex are every edge once, by its canonical tuple", Mesh,
+                   IDAS_TRI_MESHES) {
+    // Parallel workers build their initial queues from their own vertices' edges: none may
+    // be missed or found twice, boundary edges included (bunny has five holes).
+    auto m = idas::test::load<Mesh>("bunny.obj");
+    std::vector<std::tuple<index_t, index_t, int>> canonical, per_vertex;
+    auto keep = [&](auto& into) {
+        return [&](auto, const tri_tuple& t) { into.emplace_back(t.fid, t.local_edge, 0); };
+    };
+    auto push_canonical = keep(canonical);
+    push_all_edges<op::collapse_edge>(m, push_canonical);
+    std::size_t boundary = 0;
+    for (index_t v = 0; v < m.vertex_slots(); ++v)
+        if (m.vertex_alive(v))
+            for_each_edge_from(m, v, [&](const tri_tuple& t) {
+                const auto [a, b] = m.edge_vertices(t);
+                CHECK(std::min(a, b) == v);
+                boundary += m.is_boundary_edge(t);
+                per_vertex.emplace_back(t.fid, t.local_edge, 0);
+            });
+    std::sort(canonical.begin(), canonical.end());
+    std::sort(per_vertex.begin(), per_vertex.end());
+    CHECK(boundary > 0);
+    CHECK(std::adjacent_find(per_vertex.begin(), per_vertex.end()) == per_vertex.end());
+    CHECK(per_vertex == canonical);
+}
+
 TEST_CASE_TEMPLATE("every smoothing pass moves every free vertex", Mesh, IDAS_TRI_MESHES) {
     // Moving a vertex renews its neighbours' faces; their queue entries must be renewed
     // too, or about half of the vertices are never smoothed.

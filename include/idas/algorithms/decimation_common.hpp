@@ -4,6 +4,9 @@
 #include <idas/exec/executor.hpp>
 #include <idas/mesh/tri_mesh.hpp>
 
+#include <boost/container/small_vector.hpp>
+
+#include <algorithm>
 #include <cstdint>
 #include <utility>
 #include <vector>
@@ -62,6 +65,32 @@ template <class Mesh>
 bool runs_upwards(const Mesh& m, const typename Mesh::tuple& t) {
     const auto& fv = m.face_vertices(t.fid);
     return fv[(t.local_edge + 1) % 3] < fv[(t.local_edge + 2) % 3];
+}
+
+/// The edges whose smaller vertex is v, each once by its canonical tuple: over all
+/// vertices, every edge once. A spec's `initial_at` uses it so that parallel workers
+/// find the initial entries of their own part's vertices, without a serial edge scan.
+template <class Mesh, class Fn>
+void for_each_edge_from(const Mesh& m, index_t v, Fn&& fn) {
+    // Around v each face has corners (v, next, prev). An edge (v, x) runs upwards in the
+    // face where x is next; it has no such face only on the boundary, where its one
+    // face has x as prev.
+    boost::container::small_vector<index_t, 16> nexts;
+    for (index_t f : m.vertex_faces(v)) {
+        const auto& fv = m.face_vertices(f);
+        nexts.push_back(fv[0] == v ? fv[1] : fv[1] == v ? fv[2] : fv[0]);
+    }
+    std::size_t k = 0;
+    for (index_t f : m.vertex_faces(v)) {
+        const auto& fv = m.face_vertices(f);
+        const int i = fv[0] == v ? 0 : fv[1] == v ? 1 : 2;
+        const index_t next = nexts[k++], prev = fv[(i + 2) % 3];
+        // Local edge le joins corners le + 1 and le + 2: (v, next) is le = i + 2 and
+        // (prev, v) is le = i + 1.
+        if (v < next) fn(m.tuple_from_edge(f, std::uint8_t((i + 2) % 3)));
+        if (v < prev && std::find(nexts.begin(), nexts.end(), prev) == nexts.end())
+            fn(m.tuple_from_edge(f, std::uint8_t((i + 1) % 3)));
+    }
 }
 
 /// Every edge once, by its canonical tuple (the initial queue of a decimation).

@@ -128,8 +128,8 @@ struct remesh_split_spec : detail::with_invariants<Extra...> {
     }
     // Only candidates enter the queue: most edges are already fine.
     template <class Push, class Mesh>
-    void initial(const Mesh& m, Push& push) const {
-        m.for_each_edge([&](const typename Mesh::tuple& t) {
+    void initial_at(const Mesh& m, index_t v, Push& push) const {
+        for_each_edge_from(m, v, [&](const typename Mesh::tuple& t) {
             if (too_long(m, t)) push(op::split_edge{}, t);
         });
     }
@@ -185,8 +185,8 @@ struct remesh_collapse_spec : detail::with_invariants<Extra...> {
         return squared_norm(m.position(a) - m.position(b)) < lo * lo;
     }
     template <class Push, class Mesh>
-    void initial(const Mesh& m, Push& push) const {
-        m.for_each_edge([&](const typename Mesh::tuple& t) {
+    void initial_at(const Mesh& m, index_t v, Push& push) const {
+        for_each_edge_from(m, v, [&](const typename Mesh::tuple& t) {
             if (too_short(m, t)) push(op::collapse_edge{}, detail::frozen_first(m, *s, t));
         });
     }
@@ -245,8 +245,8 @@ struct remesh_swap_spec : detail::with_invariants<Extra...> {
 
     // Only candidates enter the queue: most edges are not worth flipping.
     template <class Push, class Mesh>
-    void initial(const Mesh& m, Push& push) const {
-        m.for_each_edge([&](const typename Mesh::tuple& t) {
+    void initial_at(const Mesh& m, index_t v, Push& push) const {
+        for_each_edge_from(m, v, [&](const typename Mesh::tuple& t) {
             if (before(op::swap_edge{}, m, t)) push(op::swap_edge{}, t);
         });
     }
@@ -306,10 +306,9 @@ struct remesh_smooth_spec : detail::with_invariants<Extra...> {
                m.attribute(s->smoothed)[v] != s->pass;
     }
     template <class Push, class Mesh>
-    void initial(const Mesh& m, Push& push) const {
-        m.for_each_vertex([&](const typename Mesh::tuple& t) {
-            if (movable(m, t.vid)) push(op::smooth_vertex{}, t);
-        });
+    void initial_at(const Mesh& m, index_t v, Push& push) const {
+        if (movable(m, v) && !std::ranges::empty(m.vertex_faces(v))) // not unreferenced
+            push(op::smooth_vertex{}, m.tuple_from_vertex(v));
     }
     template <class Mesh>
     std::optional<vec3> before(op::smooth_vertex, const Mesh& m,

@@ -42,14 +42,12 @@
 #include <idas/ops/tri_ops.hpp>
 
 #include <boost/container/small_vector.hpp>
-#include <tbb/global_control.h>
-#include <tbb/parallel_for.h>
 #include <tbb/spin_mutex.h>
-#include <tbb/task_arena.h>
 
 #include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <exception>
 #include <memory>
 #include <mutex>
 #include <thread>
@@ -169,28 +167,45 @@ inline constexpr bool has_relaxed_versions = requires(const M& m, index_t i) {
     m.connectivity().tet_version_relaxed(i);
 };
 
-/// Runs fn(0) ... fn(n - 1) concurrently on `threads` threads and waits for all.
-/// oneTBB normally; under ThreadSanitizer std::thread instead, because Debian's libtbb is
-/// not instrumented and TSan cannot see its joins (every report would be a false one).
-/// The workers' code is the same either way.
+/// Runs fn(0) ... fn(n - 1) on `threads` threads at once and waits for all; with more
+/// indices than threads, each thread takes the next index when it is done.
+/// Plain threads rather than oneTBB tasks: the executor's workers must run at the same
+/// time (each owns a queue and a slot pool), and oneTBB only lets tasks run in parallel.
+/// Under load its worker thread joined 0.1-0.6 s late or not at all: in remeshing's
+/// short swap and smoothing phases one thread did every worker's part in turn. Starting
+/// a thread costs tens of microseconds, once per executor run. (ThreadSanitizer also
+/// sees these joins, which it cannot in Debian's uninstrumented libtbb.)
 template <class Fn>
 void run_workers(unsigned threads, unsigned n, Fn&& fn) {
-#if defined(__SANITIZE_THREAD__)
-    (void)threads;
+    if (n == 0) return;
+    std::atomic<unsigned> next{0};
+    std::exception_ptr failure; // the first exception a worker threw, rethrown after the join
+    std::mutex failure_mutex;
+    auto work = [&] {
+        try {
+            for (unsigned i; (i = next.fetch_add(1, std::memory_order_relaxed)) < n;) fn(i);
+        } catch (...) {
+            const std::lock_guard lk(failure_mutex);
+            if (!failure) failure = std::current_exception();
+        }
+    };
     std::vector<std::thread> pool;
-    for (unsigned i = 0; i < n; ++i) pool.emplace_back([&fn, i] { fn(i); });
+    const unsigned extra = std::min(std::max(threads, 1u), n) - 1;
+    pool.reserve(extra);
+    for (unsigned t = 0; t < extra; ++t) pool.emplace_back(work);
+    work();
     for (auto& t : pool) t.join();
-#else
-    // Allow more threads than cores when asked (contention tests); oneTBB caps at the
-    // core count otherwise.
-    tbb::global_control allow(tbb::global_control::max_allowed_parallelism, threads);
-    tbb::task_arena arena(static_cast<int>(threads));
-    arena.execute([&] {
-        tbb::parallel_for(
-            0u, n, [&](unsigned i) { fn(i); }, tbb::simple_partitioner{});
-    });
-#endif
+    if (failure) std::rethrow_exception(failure);
 }
+} // namespace detail
+
+namespace detail {
+/// Stands in for the executor's push callbacks (lvalues) when asking what a spec takes.
+template <class Tuple>
+struct push_probe {
+    template <class Op>
+    void operator()(Op, const Tuple&) const noexcept {}
+};
 } // namespace detail
 
 /// What the executor needs of a tetrahedral mesh (tet_mesh<B> models it).
@@ -487,7 +502,8 @@ private:
         if constexpr (ops::adds_simplices) {
             // Room for the growth the spec expects (default: the mesh may double), dealt
             // out to the workers; an operation that does not fit waits for the serial pass.
-            index_t extra_vertices = std::max<index_t>(4096, m.vertex_slots());
+            // Dead slots are dealt first, so passes in a row do not grow the arrays again.
+            index_t extra_vertices = std::max<index_t>(4096, index_t(m.n_vertices()));
             index_t extra_cells = 2 * extra_vertices;
             if constexpr (requires { spec.parallel_growth(m).first; }) {
                 const auto [v, c] = spec.parallel_growth(m);
@@ -504,7 +520,9 @@ private:
         // Initial entries go to the part of their tuple's vertex.
         const std::vector<std::uint32_t> part = Partition::assign(m, P);
         std::uint64_t initial_count = 0;
-        if constexpr (requires { spec.initial_at(m, index_t{}, [](auto, const tuple&) {}); }) {
+        if constexpr (requires(detail::push_probe<tuple> & push) {
+                          spec.initial_at(m, index_t{}, push);
+                      }) {
             // Each worker finds the entries of its own part's vertices.
             std::vector<std::uint64_t> found(P, 0);
             detail::run_workers(T, P, [&](unsigned w) {

@@ -78,6 +78,7 @@
 
 #include <idas/core/concepts.hpp>
 #include <idas/core/types.hpp>
+#include <idas/mesh/backend/slot_pools.hpp>
 
 #include <algorithm>
 #include <array>
@@ -372,37 +373,26 @@ public:
     /// off until end_parallel.
     void begin_parallel(unsigned workers, index_t extra_vertices, index_t extra_faces) {
         recycle_ = false;
-        pools_.assign(workers, {});
-        const index_t v0 = vertex_slots(), f0 = face_slots();
-        anchor_.resize(std::size_t(v0) + extra_vertices, invalid_index);
-        valive_.resize(std::size_t(v0) + extra_vertices, 0);
-        faces_.resize(std::size_t(f0) + extra_faces, dead_face());
-        for (unsigned w = 0; w < workers; ++w) { // blocks, so each hands out ascending slots
-            auto& p = pools_[w];
-            const index_t vb = v0 + index_t(std::size_t(extra_vertices) * w / workers);
-            const index_t ve = v0 + index_t(std::size_t(extra_vertices) * (w + 1) / workers);
-            const index_t fb = f0 + index_t(std::size_t(extra_faces) * w / workers);
-            const index_t fe = f0 + index_t(std::size_t(extra_faces) * (w + 1) / workers);
-            for (index_t v = ve; v-- > vb;) p.vertices.push_back(v);
-            for (index_t f = fe; f-- > fb;) p.faces.push_back(f);
-        }
+        const index_t nv =
+            vertex_pool_.deal(workers, free_vertices_, vertex_slots(), extra_vertices);
+        const index_t nf = face_pool_.deal(workers, free_faces_, face_slots(), extra_faces);
+        anchor_.resize(nv, invalid_index);
+        valive_.resize(nv, 0);
+        faces_.resize(nf, dead_face());
         parallel_ = true;
     }
     /// Unused pool slots become ordinary recyclable dead slots again.
     void end_parallel() {
         parallel_ = false;
         recycle_ = true;
-        for (auto& p : pools_) {
-            free_vertices_.insert(free_vertices_.end(), p.vertices.rbegin(), p.vertices.rend());
-            free_faces_.insert(free_faces_.end(), p.faces.rbegin(), p.faces.rend());
-        }
-        pools_.clear();
+        vertex_pool_.release(free_vertices_);
+        face_pool_.release(free_faces_);
     }
     /// Whether this worker's pool can serve an operation adding these many simplices.
     bool has_room(index_t vertices, index_t faces) const noexcept {
         if (!parallel_) return true;
-        const auto& p = pools_[detail::worker_index];
-        return p.vertices.size() >= vertices && p.faces.size() >= faces;
+        return vertex_pool_.available(detail::worker_index) >= vertices &&
+               face_pool_.available(detail::worker_index) >= faces;
     }
 
     // ---- journaled mutation ----
@@ -412,10 +402,7 @@ public:
     // slot keeps counting versions, so old tuples to it stay stale.
     index_t add_vertex(undo_log& log) {
         if (parallel_) {
-            auto& pool = pools_[detail::worker_index].vertices;
-            assert(!pool.empty());
-            const index_t v = pool.back();
-            pool.pop_back();
+            const index_t v = vertex_pool_.take(detail::worker_index);
             valive_[v] = 1;
             log.push(undo_entry::what::vertex_from_pool, v);
             return v;
@@ -444,10 +431,7 @@ public:
         index_t id;
         if (parallel_ || (recycle_ && !free_faces_.empty())) {
             if (parallel_) {
-                auto& pool = pools_[detail::worker_index].faces;
-                assert(!pool.empty());
-                id = pool.back();
-                pool.pop_back();
+                id = face_pool_.take(detail::worker_index);
                 log.push(undo_entry::what::face_from_pool, id);
             } else {
                 id = free_faces_.back();
@@ -582,10 +566,10 @@ public:
                 break;
             case w::vertex_from_pool:
                 valive_[e.a] = 0;
-                pools_[detail::worker_index].vertices.push_back(e.a);
+                vertex_pool_.give_back(detail::worker_index, e.a);
                 break;
             case w::face_from_pool:
-                pools_[detail::worker_index].faces.push_back(e.a);
+                face_pool_.give_back(detail::worker_index, e.a);
                 break;
             }
         }
@@ -750,10 +734,8 @@ private:
     std::vector<std::uint8_t> valive_;
     std::vector<index_t> free_faces_, free_vertices_;
     bool recycle_ = true;
-    struct slot_pool {
-        std::vector<index_t> vertices, faces;
-    };
-    std::vector<slot_pool> pools_; // per parallel worker, between begin_ and end_parallel
+    detail::slot_pool vertex_pool_,
+        face_pool_; // per parallel worker, between begin_ and end_parallel
     bool parallel_ = false;
 };
 

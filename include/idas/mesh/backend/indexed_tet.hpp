@@ -5,6 +5,7 @@
 
 #include <idas/core/concepts.hpp>
 #include <idas/core/types.hpp>
+#include <idas/mesh/backend/slot_pools.hpp>
 
 #include <boost/container/small_vector.hpp>
 
@@ -112,41 +113,27 @@ public:
     /// no atomics. Recycling is off until end_parallel.
     void begin_parallel(unsigned workers, index_t extra_vertices, index_t extra_tets) {
         recycle_ = false;
-        pools_.assign(workers, {});
-        const index_t v0 = vertex_slots(), t0 = tet_slots();
-        vt_.resize(std::size_t(v0) + extra_vertices);
-        valive_.resize(std::size_t(v0) + extra_vertices, 0);
-        tv_.resize(std::size_t(t0) + extra_tets,
-                   {invalid_index, invalid_index, invalid_index, invalid_index});
-        version_.resize(std::size_t(t0) + extra_tets, 0);
-        // Blocks, pushed in reverse so each worker hands out ascending slots.
-        for (unsigned w = 0; w < workers; ++w) {
-            auto& p = pools_[w];
-            const auto cut = [&](index_t base, index_t extra, unsigned k) {
-                return base + index_t(std::size_t(extra) * k / workers);
-            };
-            for (index_t v = cut(v0, extra_vertices, w + 1); v-- > cut(v0, extra_vertices, w);)
-                p.vertices.push_back(v);
-            for (index_t t = cut(t0, extra_tets, w + 1); t-- > cut(t0, extra_tets, w);)
-                p.tets.push_back(t);
-        }
+        const index_t nv =
+            vertex_pool_.deal(workers, free_vertices_, vertex_slots(), extra_vertices);
+        const index_t nt = tet_pool_.deal(workers, free_tets_, tet_slots(), extra_tets);
+        vt_.resize(nv);
+        valive_.resize(nv, 0);
+        tv_.resize(nt, {invalid_index, invalid_index, invalid_index, invalid_index});
+        version_.resize(nt, 0);
         parallel_ = true;
     }
     /// Unused pool slots become ordinary recyclable dead slots again.
     void end_parallel() {
         parallel_ = false;
         recycle_ = true;
-        for (auto& p : pools_) {
-            free_vertices_.insert(free_vertices_.end(), p.vertices.rbegin(), p.vertices.rend());
-            free_tets_.insert(free_tets_.end(), p.tets.rbegin(), p.tets.rend());
-        }
-        pools_.clear();
+        vertex_pool_.release(free_vertices_);
+        tet_pool_.release(free_tets_);
     }
     /// Whether this worker's pool can serve an operation adding these many simplices.
     bool has_room(index_t vertices, index_t tets) const noexcept {
         if (!parallel_) return true;
-        const auto& p = pools_[detail::worker_index];
-        return p.vertices.size() >= vertices && p.tets.size() >= tets;
+        return vertex_pool_.available(detail::worker_index) >= vertices &&
+               tet_pool_.available(detail::worker_index) >= tets;
     }
 
     // ---- journaled mutation ----
@@ -155,10 +142,7 @@ public:
     // size. A recycled tet slot keeps counting versions, so old tuples to it stay stale.
     index_t add_vertex(undo_log& log) {
         if (parallel_) {
-            auto& pool = pools_[detail::worker_index].vertices;
-            assert(!pool.empty());
-            const index_t v = pool.back();
-            pool.pop_back();
+            const index_t v = vertex_pool_.take(detail::worker_index);
             valive_[v] = 1;
             log.push_back({undo_entry::what::vertex_from_pool, v});
             return v;
@@ -186,10 +170,7 @@ public:
     index_t add_tet(const tet_indices& t, undo_log& log) {
         index_t id;
         if (parallel_) {
-            auto& pool = pools_[detail::worker_index].tets;
-            assert(!pool.empty());
-            id = pool.back();
-            pool.pop_back();
+            id = tet_pool_.take(detail::worker_index);
             log.push_back({undo_entry::what::tet_from_pool, id});
             save_tet(id, log);
             tv_[id] = t;
@@ -273,10 +254,10 @@ public:
                 break;
             case w::vertex_from_pool:
                 valive_[e.a] = 0;
-                pools_[detail::worker_index].vertices.push_back(e.a);
+                vertex_pool_.give_back(detail::worker_index, e.a);
                 break;
             case w::tet_from_pool:
-                pools_[detail::worker_index].tets.push_back(e.a);
+                tet_pool_.give_back(detail::worker_index, e.a);
                 break;
             case w::vt_insert:
                 assert(!vt_[e.a].empty() && vt_[e.a].back() == e.b);
@@ -325,11 +306,8 @@ private:
     std::vector<std::uint8_t> valive_;
     std::vector<index_t> free_tets_, free_vertices_;
     bool recycle_ = true;
-    struct slot_pool {
-        std::vector<index_t> vertices, tets;
-        friend bool operator==(const slot_pool&, const slot_pool&) = default;
-    };
-    std::vector<slot_pool> pools_; // per parallel worker, between begin_ and end_parallel
+    detail::slot_pool vertex_pool_,
+        tet_pool_; // per parallel worker, between begin_ and end_parallel
     bool parallel_ = false;
 };
 

@@ -4,6 +4,7 @@
 
 #include <idas/core/concepts.hpp>
 #include <idas/core/types.hpp>
+#include <idas/mesh/backend/slot_pools.hpp>
 
 #include <boost/container/small_vector.hpp>
 
@@ -108,39 +109,27 @@ public:
     /// reallocation, no atomics. Recycling is off until end_parallel.
     void begin_parallel(unsigned workers, index_t extra_vertices, index_t extra_faces) {
         recycle_ = false;
-        pools_.assign(workers, {});
-        const index_t v0 = vertex_slots(), f0 = face_slots();
-        vf_.resize(std::size_t(v0) + extra_vertices);
-        valive_.resize(std::size_t(v0) + extra_vertices, 0);
-        fv_.resize(std::size_t(f0) + extra_faces, {invalid_index, invalid_index, invalid_index});
-        version_.resize(std::size_t(f0) + extra_faces, 0);
-        // Blocks, pushed in reverse so each worker hands out ascending slots.
-        for (unsigned w = 0; w < workers; ++w) {
-            auto& p = pools_[w];
-            const index_t vb = v0 + index_t(std::size_t(extra_vertices) * w / workers);
-            const index_t ve = v0 + index_t(std::size_t(extra_vertices) * (w + 1) / workers);
-            const index_t fb = f0 + index_t(std::size_t(extra_faces) * w / workers);
-            const index_t fe = f0 + index_t(std::size_t(extra_faces) * (w + 1) / workers);
-            for (index_t v = ve; v-- > vb;) p.vertices.push_back(v);
-            for (index_t f = fe; f-- > fb;) p.faces.push_back(f);
-        }
+        const index_t nv =
+            vertex_pool_.deal(workers, free_vertices_, vertex_slots(), extra_vertices);
+        const index_t nf = face_pool_.deal(workers, free_faces_, face_slots(), extra_faces);
+        vf_.resize(nv);
+        valive_.resize(nv, 0);
+        fv_.resize(nf, {invalid_index, invalid_index, invalid_index});
+        version_.resize(nf, 0);
         parallel_ = true;
     }
     /// Unused pool slots become ordinary recyclable dead slots again.
     void end_parallel() {
         parallel_ = false;
         recycle_ = true;
-        for (auto& p : pools_) {
-            free_vertices_.insert(free_vertices_.end(), p.vertices.rbegin(), p.vertices.rend());
-            free_faces_.insert(free_faces_.end(), p.faces.rbegin(), p.faces.rend());
-        }
-        pools_.clear();
+        vertex_pool_.release(free_vertices_);
+        face_pool_.release(free_faces_);
     }
     /// Whether this worker's pool can serve an operation adding these many simplices.
     bool has_room(index_t vertices, index_t faces) const noexcept {
         if (!parallel_) return true;
-        const auto& p = pools_[detail::worker_index];
-        return p.vertices.size() >= vertices && p.faces.size() >= faces;
+        return vertex_pool_.available(detail::worker_index) >= vertices &&
+               face_pool_.available(detail::worker_index) >= faces;
     }
 
     // ---- journaled mutation ----
@@ -150,10 +139,7 @@ public:
     // face slot keeps counting versions, so old tuples to it stay stale.
     index_t add_vertex(undo_log& log) {
         if (parallel_) {
-            auto& pool = pools_[detail::worker_index].vertices;
-            assert(!pool.empty());
-            const index_t v = pool.back();
-            pool.pop_back();
+            const index_t v = vertex_pool_.take(detail::worker_index);
             valive_[v] = 1;
             log.push_back({undo_entry::what::vertex_from_pool, v});
             return v;
@@ -181,10 +167,7 @@ public:
     index_t add_face(const tri_indices& f, undo_log& log) {
         index_t id;
         if (parallel_) {
-            auto& pool = pools_[detail::worker_index].faces;
-            assert(!pool.empty());
-            id = pool.back();
-            pool.pop_back();
+            id = face_pool_.take(detail::worker_index);
             log.push_back({undo_entry::what::face_from_pool, id});
             save_face(id, log);
             fv_[id] = f;
@@ -265,10 +248,10 @@ public:
                 break;
             case w::vertex_from_pool:
                 valive_[e.a] = 0;
-                pools_[detail::worker_index].vertices.push_back(e.a);
+                vertex_pool_.give_back(detail::worker_index, e.a);
                 break;
             case w::face_from_pool:
-                pools_[detail::worker_index].faces.push_back(e.a);
+                face_pool_.give_back(detail::worker_index, e.a);
                 break;
             case w::free_face_popped:
                 free_faces_.push_back(e.a);
@@ -320,11 +303,8 @@ private:
     std::vector<std::uint8_t> valive_;
     std::vector<index_t> free_faces_, free_vertices_;
     bool recycle_ = true;
-    struct slot_pool {
-        std::vector<index_t> vertices, faces;
-        friend bool operator==(const slot_pool&, const slot_pool&) = default;
-    };
-    std::vector<slot_pool> pools_; // per parallel worker, between begin_ and end_parallel
+    detail::slot_pool vertex_pool_,
+        face_pool_; // per parallel worker, between begin_ and end_parallel
     bool parallel_ = false;
 };
 
