@@ -4,7 +4,7 @@
 // includes the library headers, the CGAL ones when IDAS_CLI_HAVE_CGAL).
 //
 //   idas harmonic OUT (--points IN | --gaussian N [--seed S]) [--mode reduced|complete]
-//                 [--threads T] [--rounds R] [--json] [--ascii]
+//                 [--threads T] [--rounds R] [--backend indexed|adjacency] [--json] [--ascii]
 //
 // OUT is .msh (MSH 4.1) or .vtu. IN is .xyz or .ply (its vertex element; other elements,
 // such as a dummy face, are ignored).
@@ -15,6 +15,7 @@ struct harmonic_arguments {
     std::size_t gaussian = 0;
     std::uint64_t seed = 1;
     std::string mode = "complete";
+    std::string backend = "indexed";
     unsigned threads = 1, rounds = 2;
     bool as_json = false, ascii = false;
     CLI::Option* points_option = nullptr;
@@ -43,6 +44,11 @@ CLI::App* add_harmonic_command(CLI::App& app, harmonic_arguments& a,
         ->capture_default_str();
     c->add_option("--rounds", a.rounds, "complete mode: rounds of smoothing and flips")
         ->check(unsigned_check)
+        ->capture_default_str();
+    c->add_option("--backend", a.backend,
+                  "tet connectivity: indexed (vertex-to-tet lists) or adjacency (tet-to-tet "
+                  "links, one tet per vertex)")
+        ->check(CLI::IsMember({"indexed", "adjacency"}))
         ->capture_default_str();
     c->add_flag("--json", a.as_json, "print one JSON object instead of text");
     c->add_flag("--ascii", a.ascii, "write MSH and VTU as text instead of binary");
@@ -87,19 +93,25 @@ int run_harmonic(const harmonic_arguments& a) {
         throw idas::input_error(source + ": " + e.what());
     }
     const double delaunay_seconds = delaunay_clock.seconds();
-    idas::tet_mesh<> m(dt.vertices, dt.tets);
-    const auto before = idas::algorithms::harmonic_statistics(m);
-
     idas::algorithms::harmonic_options o;
     o.mode = a.mode == "reduced" ? idas::algorithms::harmonic_mode::reduced
                                  : idas::algorithms::harmonic_mode::complete;
     o.rounds = a.rounds;
     o.exec.threads = a.threads;
-    const auto r = idas::algorithms::harmonic_triangulation<>::run(m, o);
-    const auto after = idas::algorithms::harmonic_statistics(m);
-
+    idas::algorithms::harmonic_stats before, after;
+    idas::algorithms::harmonic_report r;
     idas::io::volume v;
-    std::tie(v.vertices, v.tets) = m.to_arrays();
+    // The same run on either tet backend (--backend).
+    const auto flip = [&]<class Mesh>(Mesh m) {
+        before = idas::algorithms::harmonic_statistics(m);
+        r = idas::algorithms::harmonic_triangulation<Mesh>::run(m, o);
+        after = idas::algorithms::harmonic_statistics(m);
+        std::tie(v.vertices, v.tets) = m.to_arrays();
+    };
+    if (a.backend == "adjacency")
+        flip(idas::tet_mesh<idas::backend::adjacency_tet>(dt.vertices, dt.tets));
+    else
+        flip(idas::tet_mesh<idas::backend::indexed_tet>(dt.vertices, dt.tets));
     const auto enc = a.ascii ? idas::io::encoding::ascii : idas::io::encoding::binary;
     if (ext == ".vtu") {
         idas::io::vtu_options options;
@@ -117,6 +129,7 @@ int run_harmonic(const harmonic_arguments& a) {
         j["duplicate_points"] = dt.duplicates;
         j["mode"] = a.mode;
         j["threads"] = a.threads;
+        j["backend"] = a.backend;
         j["tets_before"] = before.tets;
         j["tets_after"] = after.tets;
         j["mean_harmonic_index_before"] = before.mean_index;

@@ -430,6 +430,17 @@ run harmonic "$TMP/h.vtu" --gaussian 2000 --seed 3 --mode reduced --threads 2 --
 expect_rc "harmonic reduced vtu 2 threads" 0
 expect_field "harmonic reduced" "d['smoothed']" 0
 expect_field "harmonic reduced" "d['tets_after'] == d['tets_before'] - d['flips']" True
+# The adjacency tet backend: the same serial reduced run flips the same faces.
+run harmonic "$TMP/hi.msh" --gaussian 2000 --seed 3 --mode reduced --json
+indexed_result=$(field "[d['flips'], d['tets_after'], round(d['mean_harmonic_index_after'], 12)]")
+run harmonic "$TMP/ha.msh" --gaussian 2000 --seed 3 --mode reduced --backend adjacency --json
+expect_rc "harmonic adjacency backend" 0
+expect_field "harmonic adjacency backend" "d['backend']" adjacency
+expect_field "harmonic adjacency backend" "[d['flips'], d['tets_after'], round(d['mean_harmonic_index_after'], 12)]" "$indexed_result"
+run info "$TMP/ha.msh" --json
+expect_rc "harmonic adjacency output reads back" 0
+run harmonic "$TMP/never_h.msh" --gaussian 100 --backend corner
+expect_rc "harmonic unknown backend" 2
 printf '# four points and a duplicate\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n1 0 0\n0.3 0.3 0.3\n' >"$TMP/pts.xyz"
 run harmonic "$TMP/pts.msh" --points "$TMP/pts.xyz" --json
 expect_rc "harmonic xyz" 0
