@@ -8,10 +8,11 @@
 // Inputs: data/bunny.obj (open), data/armadillo.obj (closed) and armadillo x4 (armadillo
 // after one 1-to-4 midpoint subdivision at run time: 345,928 faces, the same surface).
 // Both peers get the same absolute target length L * (bounding-box diagonal), default
-// L = 0.005, and the same iteration count (default 5). idas keeps boundary vertices in
-// place (its default); CGAL runs with its defaults (border edges are split and collapsed
-// along the border). Neither protects sharp features. --envelope EPS (idas only) adds the
-// exact envelope invariant at EPS times the diagonal.
+// L = 0.005, and the same iteration count (default 5). Both treat borders alike: border
+// edges are split and collapsed along the border and border vertices are not smoothed
+// (CGAL's defaults; idas with preserve_boundary = false). `--boundary keep` freezes
+// idas's border vertices instead (the library's default). Neither protects sharp features.
+// --envelope EPS (idas only) adds the exact envelope invariant at EPS times the diagonal.
 //
 // Printed as one JSON object on one line:
 //   seconds_algorithm   wall time of the remeshing call only (idas: isotropic_remeshing::run,
@@ -76,7 +77,8 @@ struct options {
     double envelope = -1; // relative eps; <0: off
     double length = 0.005;
     unsigned iterations = 5;
-    double samples = 500000; // Hausdorff face samples per input surface area
+    double samples = 500000;    // Hausdorff face samples per input surface area
+    bool keep_boundary = false; // idas: freeze boundary vertices instead of remeshing along it
 };
 
 [[noreturn]] void usage(const std::string& message) {
@@ -84,7 +86,8 @@ struct options {
                  "bench_remeshing: %s\n"
                  "usage: bench_remeshing --peer idas|cgal --input bunny|armadillo|armadillo-x4\n"
                  "         [--threads T] [--envelope EPS] [--length L] [--iterations K]"
-                 " [--samples N] [--data-dir DIR]\n",
+                 " [--samples N] [--data-dir DIR]\n"
+                 "         [--boundary remesh|keep]\n",
                  message.c_str());
     std::exit(2);
 }
@@ -111,6 +114,8 @@ options parse(int argc, char** argv) {
             o.samples = std::stod(v);
         else if (a == "--data-dir")
             o.data_dir = v;
+        else if (a == "--boundary" && (v == "remesh" || v == "keep"))
+            o.keep_boundary = v == "keep";
         else
             usage("unknown option " + a);
     }
@@ -207,6 +212,7 @@ run_result run_idas(const surface& in, double L, const options& o, double eps) {
     idas::algorithms::remeshing_options ro;
     ro.target_length = L;
     ro.iterations = o.iterations;
+    ro.preserve_boundary = o.keep_boundary;
     const idas::exec_options exec{.threads = o.threads};
     idas::algorithms::remeshing_report r;
     run_result out;
@@ -277,7 +283,8 @@ int run(const options& o) {
 
     std::printf(
         "{\"peer\":\"%s\",\"input\":\"%s\",\"input_faces\":%zu,\"threads\":%u,\"envelope\":%s,"
-        "\"eps_relative\":%g,\"length_relative\":%g,\"target_length\":%.9g,\"iterations\":%u,"
+        "\"boundary\":\"%s\",\"eps_relative\":%g,\"length_relative\":%g,\"target_length\":%.9g,"
+        "\"iterations\":%u,"
         "\"seconds_algorithm\":%.6f,\"seconds_envelope_build\":%.3f,\"output_faces\":%zu,"
         "\"valence6\":%.6f,\"min_angle_deg\":%.4f,\"mean_min_angle_deg\":%.4f,"
         "\"faces_below_10_deg\":%zu,\"faces_below_20_deg\":%zu,\"edge_length_ratio\":%.5f,"
@@ -286,11 +293,12 @@ int run(const options& o) {
         "\"rss_loaded_mb\":%.1f,\"peak_rss_delta_mb\":%.1f,\"peak_reset\":%s,\"manifold\":%s,"
         "\"euler\":%ld,\"input_euler\":%ld%s}\n",
         o.peer.c_str(), o.input.c_str(), in.faces.size(), o.threads,
-        o.envelope > 0 ? "true" : "false", eps / diagonal, o.length, L, o.iterations, r.seconds,
-        r.seconds_envelope, r.output.faces.size(), q.valence6, q.min_angle, q.mean_min_angle,
-        q.below10, q.below20, q.edge_length / L, h_out_in, std::max(h_out_in, h_in_out), o.samples,
-        outside, worst / eps, rss_loaded, peak - rss_loaded, peak_reset ? "true" : "false",
-        topo.editable() ? "true" : "false", static_cast<long>(topo.euler_characteristic),
+        o.envelope > 0 ? "true" : "false", o.keep_boundary ? "keep" : "remesh", eps / diagonal,
+        o.length, L, o.iterations, r.seconds, r.seconds_envelope, r.output.faces.size(), q.valence6,
+        q.min_angle, q.mean_min_angle, q.below10, q.below20, q.edge_length / L, h_out_in,
+        std::max(h_out_in, h_in_out), o.samples, outside, worst / eps, rss_loaded,
+        peak - rss_loaded, peak_reset ? "true" : "false", topo.editable() ? "true" : "false",
+        static_cast<long>(topo.euler_characteristic),
         static_cast<long>(in_topo.euler_characteristic), r.extra.c_str());
     return 0;
 }
