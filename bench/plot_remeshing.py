@@ -200,7 +200,7 @@ def section(best, failures, before):
         "feature protection; border edges are split and collapsed along the border) against "
         "`idas::algorithms::isotropic_remeshing` on 1 and 2 threads, without and with the "
         f"exact envelope invariant (eps {any_run.get('eps_relative', 1e-3):g} of the "
-        "diagonal; its construction is not timed). idas keeps boundary vertices in place.",
+        "diagonal; its construction is not timed). idas treats borders as CGAL does (border edges split and collapsed along the border, border vertices not smoothed; `--boundary keep` would freeze them).",
         "- Seconds: the remeshing call only (both build their projection tree inside it).",
         "- Quality: fraction of interior vertices with valence 6, smallest angle, mean over "
         "faces of each face's smallest angle, faces whose smallest angle is below 20 degrees, "
