@@ -12,7 +12,13 @@
 // CGAL's check costs 50-300 us per triangle on remeshing-sized triangles, so a filter
 // decides most triangles first, without changing any answer (both of its verdicts are
 // proven, with margins for rounding):
-// * inside: a prism contains every point within eps/sqrt(3) of its triangle T (each of
+// * inside, first stage (`covered`, ~90% of remeshing's checks): projected along a
+//   coordinate axis, the input triangles under the query, found by walking the input's
+//   edge adjacency from the last query's, cover the query's projection (checked with
+//   exact orientations: a closed patch of consistently oriented triangles), and the part
+//   of the query above each of them is within eps/sqrt(3) of it (its clipped corners
+//   decide, the distance to a triangle being convex); see `covered_along`;
+// * inside, otherwise: a prism contains every point within eps/sqrt(3) of its triangle T (each of
 //   its bounding planes is at least that far from T). The distance to T is convex, so a
 //   query triangle whose three corners are within r < eps/sqrt(3) of one input triangle
 //   lies inside that prism. The query is split 4-to-1 (up to 5 levels) until every piece
@@ -51,6 +57,7 @@
 #include <idas/core/types.hpp>
 #include <idas/mesh/tri_mesh.hpp>
 #include <idas/ops/operation.hpp>
+#include <idas/predicates/orient.hpp>
 
 // GCC 12 reports false -Wmaybe-uninitialized positives inside CGAL's envelope code once
 // inlined (at -O1 with sanitizers); they are CGAL's lines, so silence them there only.
@@ -87,6 +94,30 @@ Define IDAS_ENVELOPE_SINGLE_THREADED to use it from one thread only."
 #endif
 
 namespace idas {
+
+/// Which stage decided each containment check, counted per thread when
+/// IDAS_ENVELOPE_STATS is defined (in every translation unit); all zero otherwise.
+struct envelope_stats {
+    std::uint64_t checks = 0;         ///< triangles checked (filtered contains)
+    std::uint64_t covered = 0;        ///< proven inside by the covering test (at the top)
+    std::uint64_t filter_inside = 0;  ///< proven inside by the filter (covering included)
+    std::uint64_t filter_outside = 0; ///< proven outside by the filter
+    std::uint64_t exact = 0;          ///< left to CGAL
+    std::uint64_t exact_inside = 0;   ///< of which CGAL found inside
+    std::uint64_t seed_queries = 0;   ///< tree queries for the covering test's start
+};
+
+/// The calling thread's counters.
+inline envelope_stats& envelope_counters() noexcept {
+    thread_local envelope_stats s;
+    return s;
+}
+
+#if defined(IDAS_ENVELOPE_STATS)
+#define IDAS_DETAIL_ENV_COUNT(field) (++::idas::envelope_counters().field)
+#else
+#define IDAS_DETAIL_ENV_COUNT(field) ((void)0)
+#endif
 
 class envelope {
 public:
@@ -159,10 +190,8 @@ public:
     /// Exact: is triangle (a, b, c) inside the envelope? Collinear triangles are tested
     /// as segments, coincident corners as points. True when disabled.
     bool contains(const vec3& a, const vec3& b, const vec3& c) const {
-        if (!data_) return true;
-        const verdict v = fast_verdict(a, b, c);
-        if (v != verdict::unknown) return v == verdict::inside;
-        return data_->env(point(a), point(b), point(c));
+        filter_cache cache;
+        return contains(a, b, c, cache);
     }
     /// The same answer from CGAL alone (no filter): for tests and measurements.
     bool contains_exact(const vec3& a, const vec3& b, const vec3& c) const {
@@ -192,8 +221,16 @@ public:
         };
         std::array<candidate, 16> cand;
         int n = 0;
-        std::uint64_t owner = 0; // the envelope (data id) the candidates belong to
+        std::uint64_t owner = 0;      // the envelope (data id) the candidates belong to
+        index_t seed = invalid_index; // where the last covering test started (see covered)
     };
+
+    /// The covering test alone (the filter's first stage, see `covered`): true only if the
+    /// triangle is inside; false says nothing. For tests and measurements.
+    bool covers(const vec3& a, const vec3& b, const vec3& c) const {
+        filter_cache cache;
+        return !data_ || covered(*data_, a, b, c, cache);
+    }
 
     /// The filter alone: inside or outside when it can prove it, else unknown (see the
     /// file comment). Never contradicts contains_exact.
@@ -206,7 +243,11 @@ public:
         if (!data_) return verdict::inside;
         const data& d = *data_;
         if (d.tree.empty()) return verdict::unknown;
-        if (cache.owner != d.id) cache.n = 0, cache.owner = d.id;
+        if (cache.owner != d.id) cache.n = 0, cache.owner = d.id, cache.seed = invalid_index;
+        if (covered(d, a, b, c, cache)) {
+            IDAS_DETAIL_ENV_COUNT(covered);
+            return verdict::inside;
+        }
         auto& cand = cache.cand;
         int& n_cand = cache.n;
         // Adds face f to the candidates; true if it is new there (and may prove containment).
@@ -355,9 +396,15 @@ public:
     /// contains(a, b, c) reusing a filter cache (see filter_cache).
     bool contains(const vec3& a, const vec3& b, const vec3& c, filter_cache& cache) const {
         if (!data_) return true;
+        IDAS_DETAIL_ENV_COUNT(checks);
         const verdict v = fast_verdict(a, b, c, cache);
+        if (v == verdict::inside) IDAS_DETAIL_ENV_COUNT(filter_inside);
+        if (v == verdict::outside) IDAS_DETAIL_ENV_COUNT(filter_outside);
         if (v != verdict::unknown) return v == verdict::inside;
-        return data_->env(point(a), point(b), point(c));
+        IDAS_DETAIL_ENV_COUNT(exact);
+        const bool in = data_->env(point(a), point(b), point(c));
+        if (in) IDAS_DETAIL_ENV_COUNT(exact_inside);
+        return in;
     }
 
     /// Invariant hook: every new or changed face of the operation lies inside.
@@ -390,6 +437,181 @@ public:
 private:
     static constexpr int max_level = 5;
     static constexpr std::size_t max_needles = 256;
+    static constexpr int max_cover = 48; // input triangles one covering test may use
+    static constexpr int max_walk = 12;  // steps of a walk towards a point
+
+    struct data;
+    struct cover_face {
+        std::array<vec3, 3> t;
+        vec3 n;                          // unit normal (rounded)
+        std::array<index_t, 3> nbr;      // across edge (t[e], t[e+1]); invalid_index: none
+        std::array<std::int8_t, 3> sign; // exact sign of the normal's x, y, z component
+        bool usable;                     // not a needle (see build_filter)
+    };
+    using point2 = std::array<double, 2>;
+
+    // 2D cross product (b - a) x (c - a), floating point.
+    static double cross2(const point2& a, const point2& b, const point2& c) {
+        return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
+    }
+
+    // Walks from face f over input edges towards the face whose projection (along axis k)
+    // contains q, exactly; invalid_index if the walk leaves the sheet of f's orientation,
+    // meets a border or takes too long.
+    static index_t walk(const data& d, index_t f, const point2& q, int k, int steps) {
+        const int i = (k + 1) % 3, j = (k + 2) % 3;
+        const int sigma = d.cover[f].sign[k];
+        if (sigma == 0) return invalid_index;
+        for (int s = 0; s < steps; ++s) {
+            const cover_face& F = d.cover[f];
+            if (F.sign[k] != sigma) return invalid_index;
+            const point2 T[3] = {
+                {F.t[0][i], F.t[0][j]}, {F.t[1][i], F.t[1][j]}, {F.t[2][i], F.t[2][j]}};
+            int out = -1;
+            double worst = 0;
+            for (int e = 0; e < 3; ++e) {
+                const double side = sigma * cross2(T[e], T[(e + 1) % 3], q);
+                if (side < worst) worst = side, out = e;
+            }
+            if (out < 0) // inside up to rounding: decide exactly
+                for (int e = 0; e < 3 && out < 0; ++e)
+                    if (sigma * orient2d(T[e], T[(e + 1) % 3], q) < 0) out = e;
+            if (out < 0) return f;
+            f = F.nbr[out];
+            if (f == invalid_index) return invalid_index;
+        }
+        return invalid_index;
+    }
+
+    // Sufficient test: is triangle (a, b, c) inside the envelope? Projects along the axis
+    // k closest to the triangle's normal and finds, by adjacency from the input triangle
+    // under corner a, the input triangles S whose projections cover the triangle's:
+    //   * every triangle of S projects with the same orientation (exact signs), and for
+    //     every edge of a triangle of S whose projection may meet the query's, the input
+    //     triangle across it (the edge is manifold) is in S. Then the projections of S
+    //     cover the query's: leaving their union inside the query's projection would cross
+    //     an edge (the next triangle is on its other side) or a vertex (its whole fan is in
+    //     S and winds around it);
+    //   * for each T of S, the part of the query above T (the query's projection clipped
+    //     by T's, a convex polygon) is within cover_r of T along axis k: the offset from
+    //     T's plane along k is affine there, so its largest value is at a corner, and a
+    //     point at that offset above a point of T is at most that far from T.
+    // So every point of the query is within the inner radius of some prism's triangle,
+    // hence inside that prism. The edge test may only err towards "meets" and the clip
+    // only towards larger polygons (tolerance cover_tol); cover_r leaves room for the
+    // rounding of the normals, offsets and clipped corners. False says nothing.
+    static bool covered(const data& d, const vec3& a, const vec3& b, const vec3& c,
+                        filter_cache& cache) {
+        if (!(d.cover_r > 0)) return false;
+        for (const vec3* p : {&a, &b, &c})
+            if (!(std::max({std::abs(p->x), std::abs(p->y), std::abs(p->z)}) <= 2 * d.coord))
+                return false; // far away (or not finite): the tolerances assume this scale
+        // The axis closest to the query's normal first; the next one too if not much
+        // farther (cells along a skewed axis may assign a point to a farther triangle).
+        const vec3 nq = cross(b - a, c - a);
+        const double m[3] = {std::abs(nq.x), std::abs(nq.y), std::abs(nq.z)};
+        int k1 = 0, k2 = 1;
+        if (m[k2] > m[k1]) std::swap(k1, k2);
+        if (m[2] > m[k1])
+            k2 = k1, k1 = 2;
+        else if (m[2] > m[k2])
+            k2 = 2;
+        if (covered_along(d, a, b, c, k1, cache)) return true;
+        return m[k2] >= 0.5 * m[k1] && covered_along(d, a, b, c, k2, cache);
+    }
+
+    static bool covered_along(const data& d, const vec3& a, const vec3& b, const vec3& c, int k,
+                              filter_cache& cache) {
+        const int i = (k + 1) % 3, j = (k + 2) % 3;
+        const point2 Q[3] = {{a[i], a[j]}, {b[i], b[j]}, {c[i], c[j]}};
+        const int sq = orient2d(Q[0], Q[1], Q[2]);
+        if (sq == 0) return false;
+        // The input triangle under a: walk from the last one, else from a's closest one.
+        index_t f =
+            cache.seed < d.cover.size() ? walk(d, cache.seed, Q[0], k, max_walk) : invalid_index;
+        if (f == invalid_index) {
+            IDAS_DETAIL_ENV_COUNT(seed_queries);
+            const auto r = d.tree.closest_point(a, d.outside_r2, cache.seed);
+            if (!r) return false;
+            f = walk(d, r.face, Q[0], k, 4);
+            if (f == invalid_index) return false;
+        }
+        cache.seed = f;
+        const int sigma = d.cover[f].sign[k];
+        const double tol = d.cover_tol, r = d.cover_r, r2 = r * r;
+        auto l1 = [](const point2& u, const point2& v) {
+            return std::abs(v[0] - u[0]) + std::abs(v[1] - u[1]);
+        };
+        // May the projected edge (u, v) meet the query's projection? Only a separating line
+        // (the edge's or one of the query's) with room for rounding says no.
+        auto meets = [&](const point2& u, const point2& v) {
+            const double t = tol * l1(u, v);
+            const double s0 = cross2(u, v, Q[0]), s1 = cross2(u, v, Q[1]), s2 = cross2(u, v, Q[2]);
+            if ((s0 > t && s1 > t && s2 > t) || (s0 < -t && s1 < -t && s2 < -t)) return false;
+            for (int m = 0; m < 3; ++m) {
+                const point2 &p = Q[m], &q = Q[(m + 1) % 3];
+                const double tq = tol * l1(p, q);
+                if (sq * cross2(p, q, u) < -tq && sq * cross2(p, q, v) < -tq) return false;
+            }
+            return true;
+        };
+        index_t S[max_cover];
+        int n = 0;
+        S[n++] = f;
+        for (int s = 0; s < n; ++s) {
+            const cover_face& F = d.cover[S[s]];
+            // Steep triangles magnify offsets along k (and their rounding).
+            if (!F.usable) return false;
+            const point2 T[3] = {
+                {F.t[0][i], F.t[0][j]}, {F.t[1][i], F.t[1][j]}, {F.t[2][i], F.t[2][j]}};
+            for (int e = 0; e < 3; ++e) {
+                if (!meets(T[e], T[(e + 1) % 3])) continue;
+                const index_t g = F.nbr[e];
+                if (g == invalid_index || d.cover[g].sign[k] != sigma) return false;
+                if (std::find(S, S + n, g) == S + n) {
+                    if (n == max_cover) return false;
+                    S[n++] = g;
+                }
+            }
+            // Offsets from F's plane along k at the query's corners bound the distance to F
+            // when F is not steep (steep triangles magnify the offsets and their rounding).
+            const bool flat = std::abs(F.n[k]) >= 0.1;
+            const double inv = flat ? 1.0 / F.n[k] : 0.0;
+            auto offset_ok = [&](const vec3& p) {
+                return flat && std::abs(dot(F.n, p - F.t[0]) * inv) <= r;
+            };
+            if (offset_ok(a) && offset_ok(b) && offset_ok(c)) continue;
+            // Clip the query by F's prism along k (F's edges moved out by the tolerance);
+            // the polygon's corners, on the query, decide: by offset, else by distance.
+            vec3 P[9] = {a, b, c}, P2[9];
+            int np = 3;
+            for (int e = 0; e < 3 && np > 0; ++e) {
+                const point2 &u = T[e], &v = T[(e + 1) % 3];
+                const double t = tol * l1(u, v);
+                double side[9];
+                for (int m = 0; m < np; ++m)
+                    side[m] = sigma * cross2(u, v, point2{P[m][i], P[m][j]}) + t;
+                int nn = 0;
+                for (int m = 0; m < np; ++m) {
+                    const int q = m + 1 < np ? m + 1 : 0;
+                    if (side[m] >= 0) P2[nn++] = P[m];
+                    if ((side[m] >= 0) != (side[q] >= 0)) {
+                        const double w = std::clamp(side[m] / (side[m] - side[q]), 0.0, 1.0);
+                        P2[nn++] = P[m] + (P[q] - P[m]) * w;
+                    }
+                }
+                np = nn;
+                std::copy(P2, P2 + nn, P);
+            }
+            for (int m = 0; m < np; ++m)
+                if (!offset_ok(P[m]) &&
+                    !(squared_norm(
+                          P[m] - closest_point_on_triangle(P[m], F.t[0], F.t[1], F.t[2])) <= r2)) {
+                    return false;
+                }
+        }
+        return true;
+    }
 
     struct data {
         data(const std::vector<kernel::Point_3>& points,
@@ -409,6 +631,10 @@ private:
         std::uint64_t id = next_id();
         // Boxes (min, max) around the needle triangles' prisms, as far as CGAL consults them.
         std::vector<std::pair<vec3, vec3>> needle_boxes;
+        // The covering test (see covered): per prismed triangle, and its bound on the
+        // distance along an axis (negative: off) and positional tolerance.
+        std::vector<cover_face> cover;
+        double cover_r = -1, cover_tol = 0, coord = 0;
     };
 
     // True if the bounding box of (a, b, c) meets a needle triangle's box.
@@ -454,6 +680,7 @@ private:
             d.normals[i] = n / norm(n);
         }
         d.tree = triangle_aabb_tree(V, F);
+        build_cover(d, V, T);
         // A needle's rounded normal may be far off, so its prism (all CGAL consults of it is
         // within its bounding box grown by eps(1 + 1e-6)) may reach beyond eps of it:
         // no outside proof near one. Past a few hundred needles, no outside proofs at all.
@@ -484,6 +711,61 @@ private:
         d.outside_r2 = r_out * r_out;
         d.outside_r = r_out;
         d.slab = half * (1 + 1e-6) + rounding;
+        // The covering test's offsets carry the normals' rounding (below 4e-10 of the
+        // distance, up to 6 coord, for triangles that are not needles) magnified up to 10
+        // times by steepness, and the clip tolerance: below 3e-8 coord in all.
+        d.coord = coord;
+        d.cover_tol = 1e-10 * coord;
+        d.cover_r = r_in > 0 ? r_in - 1e-7 * coord : -1.0;
+        for (std::size_t i = 0; i < T.size(); ++i) d.cover[i].usable = d.usable[i] != 0;
+    }
+
+    // Corners, normals, exact projected orientations and manifold neighbours of the
+    // prismed triangles, for the covering test.
+    static void build_cover(data& d, const std::vector<vec3>& V,
+                            const std::vector<std::array<int, 3>>& T) {
+        d.cover.resize(T.size());
+        struct half {
+            int lo, hi; // vertex indices, sorted
+            index_t face;
+            int edge;
+            bool forward; // the face runs lo -> hi
+        };
+        std::vector<half> halves;
+        halves.reserve(3 * T.size());
+        for (std::size_t f = 0; f < T.size(); ++f) {
+            cover_face& c = d.cover[f];
+            for (int e = 0; e < 3; ++e) {
+                c.t[e] = V[T[f][e]];
+                c.nbr[e] = invalid_index;
+                const int u = T[f][e], v = T[f][(e + 1) % 3];
+                halves.push_back({std::min(u, v), std::max(u, v), index_t(f), e, u < v});
+            }
+            const vec3 n = cross(c.t[1] - c.t[0], c.t[2] - c.t[0]);
+            c.n = n / norm(n);
+            for (int k = 0; k < 3; ++k) {
+                const int i = (k + 1) % 3, j = (k + 2) % 3;
+                c.sign[k] =
+                    std::int8_t(orient2d(point2{c.t[0][i], c.t[0][j]}, point2{c.t[1][i], c.t[1][j]},
+                                         point2{c.t[2][i], c.t[2][j]}));
+            }
+        }
+        std::sort(halves.begin(), halves.end(), [](const half& x, const half& y) {
+            return x.lo != y.lo ? x.lo < y.lo : x.hi < y.hi;
+        });
+        // An edge with exactly two faces running it in opposite directions is manifold.
+        for (std::size_t s = 0; s < halves.size();) {
+            std::size_t e = s + 1;
+            while (e < halves.size() && halves[e].lo == halves[s].lo &&
+                   halves[e].hi == halves[s].hi)
+                ++e;
+            if (e - s == 2 && halves[s].forward != halves[s + 1].forward &&
+                halves[s].face != halves[s + 1].face) {
+                d.cover[halves[s].face].nbr[halves[s].edge] = halves[s + 1].face;
+                d.cover[halves[s + 1].face].nbr[halves[s + 1].edge] = halves[s].face;
+            }
+            s = e;
+        }
     }
 
     static kernel::Point_3 point(const vec3& p) { return {p.x, p.y, p.z}; }
