@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Harmonic triangulations of Gaussian points (issue 7, the IDAS paper's Fig. 7).
 #
-#   bench/run_harmonic.sh [--points N] [--seed S] [--repeats R] [--bin PATH]
+#   bench/run_harmonic.sh [--points N] [--seed S] [--repeats R] [--bin PATH] [--out FILE]
 #
 # Builds bench_harmonic with the CMake preset "bench" (unless --bin is given), then runs
 # each case as its own process, back to back, R times (default 1):
@@ -10,7 +10,7 @@
 #   idas      Delaunay + flips, reduced (3-2 only) and complete (2-3, 3-2, 4-4, smoothing)
 #             modes, on 1 and 2 threads
 #
-# One JSON line per run goes to build/bench/harmonic_results.jsonl; a Markdown table of
+# One JSON line per run goes to build/bench/harmonic_results.jsonl (or --out); a Markdown table of
 # the fastest run of each case, with the ratios the issue's targets are about (complete
 # serial flipping / CGAL Delaunay, 1-thread / 2-thread flipping), is printed at the end,
 # ready for the "## Harmonic triangulations" section of bench/RESULTS.md.
@@ -22,14 +22,16 @@ points=1000000
 seed=1
 repeats=1
 bin=""
+out=""
 while [[ $# -gt 0 ]]; do
     case "$1" in
     --points) points="$2"; shift 2 ;;
     --seed) seed="$2"; shift 2 ;;
     --repeats) repeats="$2"; shift 2 ;;
     --bin) bin="$2"; shift 2 ;;
+    --out) out="$2"; shift 2 ;;
     *)
-        echo "usage: bench/run_harmonic.sh [--points N] [--seed S] [--repeats R] [--bin PATH]" >&2
+        echo "usage: bench/run_harmonic.sh [--points N] [--seed S] [--repeats R] [--bin PATH] [--out FILE]" >&2
         exit 2
         ;;
     esac
@@ -39,7 +41,7 @@ if [[ -z "$bin" ]]; then
     cmake --build --preset bench --target bench_harmonic
     bin="$root/build/bench/bench/bench_harmonic"
 fi
-results="$root/build/bench/harmonic_results.jsonl"
+results="${out:-$root/build/bench/harmonic_results.jsonl}"
 mkdir -p "$(dirname "$results")"
 : >"$results"
 

@@ -111,6 +111,13 @@ inline bool improves(const energy_sum& before, const energy_sum& after, bool kee
     return !keep_max || after.max <= before.max;
 }
 
+/// Whether the backend stores face links between tets (so writing a tet writes its
+/// neighbours' links).
+template <class Mesh>
+concept links_faces = requires(const Mesh& m, index_t t, std::uint8_t lf) {
+    m.connectivity().opposite_face(t, lf);
+};
+
 /// Per-thread marks on vertices, for counting distinct neighbours in a star without a
 /// search: a vertex is marked in the current round iff stamp == now (a linear search of
 /// the star's vertices cost as much as everything else done with them).
@@ -321,8 +328,12 @@ struct harmonic_flip_spec {
     // its new tets have only those vertices; `renew` reads the stars of the new tets'
     // vertices. So holding the vertices of the replaced tets is enough: 5 for 2-3 and 3-2,
     // 6 for 4-4, against the hundreds of the closed stars.
+    // Backends that link tets across faces (adjacency_tet) rewrite the links of the
+    // neighbours across the outer faces too, tets whose fourth vertex is not held: they
+    // keep the executor's default region (the closed stars).
     template <class Op, class Mesh, class Claim>
-    bool lock_region(Op, const Mesh& m, const tet_tuple& t, Claim&& claim) const {
+    requires(!detail::links_faces<Mesh>) bool lock_region(Op, const Mesh& m, const tet_tuple& t,
+                                                          Claim&& claim) const {
         const auto& tv = m.tet_vertices(t.tid);
         for (index_t x : tv)
             if (!claim(x)) return false;
@@ -692,5 +703,6 @@ struct harmonic_triangulation {
 static_assert(schedule_spec<harmonic_flip_spec<harmonic_mode::complete>, tet_mesh<>>);
 static_assert(schedule_spec<harmonic_smooth_spec, tet_mesh<>>);
 static_assert(tet_mesh_like<tet_mesh<>>);
+static_assert(!detail::links_faces<tet_mesh<>>); // so the flips' minimal lock regions apply
 
 } // namespace idas::algorithms
