@@ -53,6 +53,10 @@
 #include <boost/container/small_vector.hpp>
 
 #if IDAS_BENCH_WITH_CGAL
+#include <idas/algorithms/harmonic_triangulation.hpp>
+#include <idas/cgal/delaunay.hpp>
+#include <idas/io/points.hpp>
+
 #include <CGAL/Delaunay_triangulation_3.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 
@@ -75,13 +79,15 @@
 namespace {
 
 using namespace idas;
-using mesh_t = tet_mesh<>;
+using indexed_mesh = tet_mesh<backend::indexed_tet>;
+using adjacency_mesh = tet_mesh<backend::adjacency_tet>;
 
 constexpr int cube_cells = 24;
 constexpr double cube_jitter = 0.15;
 
 /// The jittered Kuhn cube (6 tets per cell around the cell's main diagonal).
-mesh_t make_cube(int n, double jitter, unsigned seed) {
+template <class Mesh>
+Mesh make_cube(int n, double jitter, unsigned seed) {
     std::mt19937 rng(seed);
     std::uniform_real_distribution<double> shake(-jitter, jitter);
     const double h = 1.0 / n;
@@ -115,25 +121,28 @@ mesh_t make_cube(int n, double jitter, unsigned seed) {
 struct bench_spec {
     bool fail = false;
 
-    std::optional<vec3> before(op::split_edge, const mesh_t& m, const tet_tuple& t) const {
+    template <class Mesh>
+    std::optional<vec3> before(op::split_edge, const Mesh& m, const tet_tuple& t) const {
         const auto [a, b] = m.edge_vertices(t);
         return (m.position(a) + m.position(b)) * 0.5;
     }
-    std::optional<vec3> before(op::collapse_edge, const mesh_t& m, const tet_tuple& t) const {
+    template <class Mesh>
+    std::optional<vec3> before(op::collapse_edge, const Mesh& m, const tet_tuple& t) const {
         const auto [a, b] = m.edge_vertices(t);
         const bool ba = m.is_boundary_vertex(a), bb = m.is_boundary_vertex(b);
         if (ba != bb) return ba ? m.position(a) : m.position(b);
         return (m.position(a) + m.position(b)) * 0.5;
     }
-    template <class Op>
+    template <class Op, class Mesh>
     requires(std::is_same_v<Op, op::split_edge> ||
-             std::is_same_v<Op, op::collapse_edge>) bool after(Op, mesh_t& m,
+             std::is_same_v<Op, op::collapse_edge>) bool after(Op, Mesh& m,
                                                                const op_result<tet_tuple>& r,
                                                                vec3& p) const {
         m.positions().set(r.anchor.vid, p);
         return !fail;
     }
-    bool after(op::smooth_vertex, mesh_t& m, const op_result<tet_tuple>& r) const {
+    template <class Mesh>
+    bool after(op::smooth_vertex, Mesh& m, const op_result<tet_tuple>& r) const {
         boost::container::small_vector<index_t, 64> ring;
         m.one_ring_vertices(r.anchor.vid, ring);
         vec3 c{};
@@ -141,10 +150,10 @@ struct bench_spec {
         m.positions().set(r.anchor.vid, c / double(ring.size()));
         return !fail;
     }
-    template <class Op>
+    template <class Op, class Mesh>
     requires(std::is_same_v<Op, op::face_swap_23> || std::is_same_v<Op, op::edge_swap_32> ||
              std::is_same_v<Op, op::edge_swap_44> ||
-             std::is_same_v<Op, op::edge_removal>) bool after(Op, mesh_t&,
+             std::is_same_v<Op, op::edge_removal>) bool after(Op, Mesh&,
                                                               const op_result<tet_tuple>&) const {
         return !fail;
     }
@@ -156,7 +165,8 @@ constexpr const char* kind_names[] = {"split_edge",   "collapse_edge", "smooth_v
                                       "face_swap_23", "edge_swap_32",  "edge_swap_44",
                                       "edge_removal"};
 
-bool run_op(kind k, mesh_t& m, const tet_tuple& t, bench_spec& s) {
+template <class Mesh>
+bool run_op(kind k, Mesh& m, const tet_tuple& t, bench_spec& s) {
     switch (k) {
     case kind::split:
         return split_edge(m, t, s).has_value();
@@ -177,7 +187,8 @@ bool run_op(kind k, mesh_t& m, const tet_tuple& t, bench_spec& s) {
 }
 
 /// The vertices whose incidences or positions the operation on t may read or write.
-void neighbourhood(const mesh_t& m, kind k, const tet_tuple& t, std::vector<index_t>& out) {
+template <class Mesh>
+void neighbourhood(const Mesh& m, kind k, const tet_tuple& t, std::vector<index_t>& out) {
     out.clear();
     boost::container::small_vector<index_t, 3> keys;
     if (k == kind::smooth) {
@@ -193,15 +204,17 @@ void neighbourhood(const mesh_t& m, kind k, const tet_tuple& t, std::vector<inde
             for (index_t x : m.tet_vertices(g)) out.push_back(x);
 }
 
+template <class Mesh>
 struct prepared {
-    mesh_t base;
+    Mesh base;
     std::vector<tet_tuple> set;
     index_t reserve_vertices = 0, reserve_tets = 0;
     double mean_ring = 0; // edge ops: mean number of tets around the edge
 };
 
-prepared independent_set(const mesh_t& base, kind k) {
-    prepared p{base, {}, 0, 0, 0};
+template <class Mesh>
+prepared<Mesh> independent_set(const Mesh& base, kind k) {
+    prepared<Mesh> p{base, {}, 0, 0, 0};
     std::vector<tet_tuple> cands;
     if (k == kind::smooth)
         cands = base.get_vertices();
@@ -213,7 +226,7 @@ prepared independent_set(const mesh_t& base, kind k) {
         cands = base.get_edges();
     std::mt19937 rng(42);
     std::shuffle(cands.begin(), cands.end(), rng);
-    mesh_t work = base;
+    Mesh work = base;
     std::vector<char> used(base.vertex_slots(), 0);
     std::vector<index_t> hood;
     bench_spec spec;
@@ -236,36 +249,39 @@ prepared independent_set(const mesh_t& base, kind k) {
     return p;
 }
 
-const mesh_t& cube_mesh() {
-    static const mesh_t m = make_cube(cube_cells, cube_jitter, 1);
+template <class Mesh = indexed_mesh>
+const Mesh& cube_mesh() {
+    static const Mesh m = make_cube<Mesh>(cube_cells, cube_jitter, 1);
     return m;
 }
 
-const prepared& fixture(kind k) {
-    static std::optional<prepared> cache[7];
+template <class Mesh>
+const prepared<Mesh>& fixture(kind k) {
+    static std::optional<prepared<Mesh>> cache[7];
     auto& slot = cache[int(k)];
     if (!slot) {
         if (k == kind::swap32) {
             // Apply an independent set of 2-3 swaps: each leaves a valence-3 edge.
-            const prepared& p23 = fixture(kind::swap23);
-            mesh_t m = p23.base;
+            const prepared<Mesh>& p23 = fixture<Mesh>(kind::swap23);
+            Mesh m = p23.base;
             bench_spec spec;
             for (const auto& t : p23.set) run_op(kind::swap23, m, t, spec);
             slot = independent_set(m, k);
         } else {
-            slot = independent_set(cube_mesh(), k);
+            slot = independent_set(cube_mesh<Mesh>(), k);
         }
     }
     return *slot;
 }
 
+template <class Mesh>
 void bm_commit(benchmark::State& st, kind k) {
-    const prepared& p = fixture(k);
+    const prepared<Mesh>& p = fixture<Mesh>(k);
     if (p.set.empty()) {
         st.SkipWithError("no candidate");
         return;
     }
-    mesh_t m;
+    Mesh m;
     bench_spec spec;
     std::size_t i = p.set.size(), ok = 0, ops = 0, copies = 0;
     for (auto _ : st) {
@@ -285,13 +301,14 @@ void bm_commit(benchmark::State& st, kind k) {
     if (p.mean_ring > 0) st.counters["ring"] = p.mean_ring;
 }
 
+template <class Mesh>
 void bm_rollback(benchmark::State& st, kind k) {
-    const prepared& p = fixture(k);
+    const prepared<Mesh>& p = fixture<Mesh>(k);
     if (p.set.empty()) {
         st.SkipWithError("no candidate");
         return;
     }
-    mesh_t m = p.base;
+    Mesh m = p.base;
     m.reserve(p.reserve_vertices, p.reserve_tets);
     bench_spec spec;
     spec.fail = true;
@@ -306,9 +323,10 @@ void bm_rollback(benchmark::State& st, kind k) {
     st.counters["unchanged"] = identical(m, p.base) ? 1 : 0;
 }
 
+template <class Mesh>
 void bm_pair_idas(benchmark::State& st) {
-    const prepared& p = fixture(kind::swap23);
-    mesh_t m = p.base;
+    const prepared<Mesh>& p = fixture<Mesh>(kind::swap23);
+    Mesh m = p.base;
     bench_spec spec;
     std::vector<tet_tuple> faces = p.set;
     std::size_t i = 0, ok = 0, ops = 0;
@@ -495,8 +513,9 @@ void bm_memory_cgal(benchmark::State& st) {
 }
 #endif
 
+template <class Mesh>
 void bm_memory(benchmark::State& st) {
-    const mesh_t& m = cube_mesh();
+    const Mesh& m = cube_mesh<Mesh>();
     std::size_t bytes = 0;
     for (auto _ : st) {
         bytes = m.connectivity().memory_bytes();
@@ -509,22 +528,173 @@ void bm_memory(benchmark::State& st) {
     st.counters["position_bytes/tet"] = double(m.vertex_slots() * sizeof(vec3)) / tets;
 }
 
+// ---- navigation: the same queries on both backends, over the whole cube ----
+
+/// One tuple per (tet, local face), in slot order.
+template <class Mesh>
+const std::vector<tet_tuple>& face_tuples() {
+    static const std::vector<tet_tuple> out = [] {
+        const Mesh& m = cube_mesh<Mesh>();
+        std::vector<tet_tuple> v;
+        for (index_t t = 0; t < m.tet_slots(); ++t)
+            for (std::uint8_t lf = 0; lf < 4; ++lf) v.push_back(m.tuple_from_face(t, lf));
+        return v;
+    }();
+    return out;
+}
+
+/// switch_vertex, switch_edge, switch_face: local to the tet on both backends.
+template <class Mesh>
+void bm_nav_local(benchmark::State& st) {
+    const Mesh& m = cube_mesh<Mesh>();
+    const auto& tuples = face_tuples<Mesh>();
+    std::size_t i = 0;
+    for (auto _ : st) {
+        const auto u = m.switch_face(m.switch_edge(m.switch_vertex(tuples[i])));
+        benchmark::DoNotOptimize(u);
+        if (++i == tuples.size()) i = 0;
+    }
+    st.counters["time/switch"] = benchmark::Counter(
+        3 * double(st.iterations()), benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+}
+
+/// switch_tetrahedron over every (tet, face): a star search (indexed) or one load
+/// (adjacency).
+template <class Mesh>
+void bm_nav_switch_tetrahedron(benchmark::State& st) {
+    const Mesh& m = cube_mesh<Mesh>();
+    const auto& tuples = face_tuples<Mesh>();
+    std::size_t i = 0, across = 0;
+    for (auto _ : st) {
+        const auto g = m.switch_tetrahedron(tuples[i]);
+        across += g.has_value();
+        benchmark::DoNotOptimize(g);
+        if (++i == tuples.size()) i = 0;
+    }
+    st.counters["interior"] = double(across) / double(st.iterations());
+}
+
+/// Every tet of a vertex's star, over all vertices: a stored list (indexed) or a walk
+/// from the anchor (adjacency). Time per vertex; "tets/vertex" is the mean star.
+template <class Mesh>
+void bm_nav_vertex_star(benchmark::State& st) {
+    const Mesh& m = cube_mesh<Mesh>();
+    index_t v = 0;
+    std::size_t visited = 0;
+    for (auto _ : st) {
+        index_t sum = 0;
+        for (index_t g : m.vertex_tets(v)) sum += g, ++visited;
+        benchmark::DoNotOptimize(sum);
+        if (++v == m.vertex_slots()) v = 0;
+    }
+    st.counters["tets/vertex"] = double(visited) / double(st.iterations());
+    st.counters["time/tet"] = benchmark::Counter(double(visited), benchmark::Counter::kIsRate |
+                                                                      benchmark::Counter::kInvert);
+}
+
+/// The tets around an edge (edge_tets), over one tuple per (tet, local edge).
+template <class Mesh>
+void bm_nav_edge_tets(benchmark::State& st) {
+    const Mesh& m = cube_mesh<Mesh>();
+    std::size_t i = 0, n = 0;
+    boost::container::small_vector<index_t, 32> around;
+    for (auto _ : st) {
+        around.clear();
+        m.edge_tets(m.tuple_from_edge(index_t(i / 6), std::uint8_t(i % 6)), around);
+        n += around.size();
+        benchmark::DoNotOptimize(around.data());
+        if (++i == 6 * std::size_t(m.tet_slots())) i = 0;
+    }
+    st.counters["tets/edge"] = double(n) / double(st.iterations());
+}
+
+/// Edge and face ids (what edge and face attributes are indexed by).
+template <class Mesh>
+void bm_nav_ids(benchmark::State& st) {
+    const Mesh& m = cube_mesh<Mesh>();
+    const auto& tuples = face_tuples<Mesh>();
+    std::size_t i = 0;
+    for (auto _ : st) {
+        benchmark::DoNotOptimize(m.eid(tuples[i]) + m.fid(tuples[i]));
+        if (++i == tuples.size()) i = 0;
+    }
+}
+
+#if IDAS_BENCH_WITH_CGAL
+/// Serial reduced-mode harmonic triangulation (3-2 swaps) of the Delaunay tetrahedrization
+/// of data/gaussian_points_100k.ply; the Delaunay mesh is built outside the timed region.
+template <class Mesh>
+void bm_harmonic_reduced(benchmark::State& st) {
+    static const auto dt = cgal::delaunay_tetrahedralization(
+        io::read_points(std::string(IDAS_DATA_DIR) + "/gaussian_points_100k.ply"));
+    algorithms::harmonic_options o;
+    o.mode = algorithms::harmonic_mode::reduced;
+    o.exec.threads = 1;
+    std::size_t flips = 0, tets = 0;
+    double index = 0;
+    for (auto _ : st) {
+        st.PauseTiming();
+        Mesh m(dt.vertices, dt.tets);
+        st.ResumeTiming();
+        flips = algorithms::harmonic_triangulation<Mesh>::run(m, o).flips;
+        st.PauseTiming();
+        tets = m.n_tets();
+        index = algorithms::harmonic_statistics(m).mean_index;
+        st.ResumeTiming();
+    }
+    st.counters["tets_before"] = double(dt.tets.size());
+    st.counters["tets_after"] = double(tets);
+    st.counters["flips"] = double(flips);
+    st.counters["mean_index"] = index;
+}
+#endif
+
 } // namespace
 
 int main(int argc, char** argv) {
+    // Rows without a backend suffix are indexed_tet (the default backend), as before;
+    // "/adjacency" rows run the same on adjacency_tet.
     for (int k = 0; k < 7; ++k) {
-        benchmark::RegisterBenchmark((std::string("commit/") + kind_names[k]).c_str(), bm_commit,
+        const std::string name = kind_names[k];
+        benchmark::RegisterBenchmark(("commit/" + name).c_str(), bm_commit<indexed_mesh>, kind(k));
+        benchmark::RegisterBenchmark(("commit/" + name + "/adjacency").c_str(),
+                                     bm_commit<adjacency_mesh>, kind(k));
+        benchmark::RegisterBenchmark(("rollback/" + name).c_str(), bm_rollback<indexed_mesh>,
                                      kind(k));
-        benchmark::RegisterBenchmark((std::string("rollback/") + kind_names[k]).c_str(),
-                                     bm_rollback, kind(k));
+        benchmark::RegisterBenchmark(("rollback/" + name + "/adjacency").c_str(),
+                                     bm_rollback<adjacency_mesh>, kind(k));
     }
-    benchmark::RegisterBenchmark("pair/face_swap_23+edge_swap_32/idas", bm_pair_idas);
+    benchmark::RegisterBenchmark("pair/face_swap_23+edge_swap_32/idas", bm_pair_idas<indexed_mesh>);
+    benchmark::RegisterBenchmark("pair/face_swap_23+edge_swap_32/idas/adjacency",
+                                 bm_pair_idas<adjacency_mesh>);
+    benchmark::RegisterBenchmark("nav/switch_vertex+edge+face", bm_nav_local<indexed_mesh>);
+    benchmark::RegisterBenchmark("nav/switch_vertex+edge+face/adjacency",
+                                 bm_nav_local<adjacency_mesh>);
+    benchmark::RegisterBenchmark("nav/switch_tetrahedron", bm_nav_switch_tetrahedron<indexed_mesh>);
+    benchmark::RegisterBenchmark("nav/switch_tetrahedron/adjacency",
+                                 bm_nav_switch_tetrahedron<adjacency_mesh>);
+    benchmark::RegisterBenchmark("nav/vertex_star", bm_nav_vertex_star<indexed_mesh>);
+    benchmark::RegisterBenchmark("nav/vertex_star/adjacency", bm_nav_vertex_star<adjacency_mesh>);
+    benchmark::RegisterBenchmark("nav/edge_tets", bm_nav_edge_tets<indexed_mesh>);
+    benchmark::RegisterBenchmark("nav/edge_tets/adjacency", bm_nav_edge_tets<adjacency_mesh>);
+    benchmark::RegisterBenchmark("nav/eid+fid", bm_nav_ids<indexed_mesh>);
+    benchmark::RegisterBenchmark("nav/eid+fid/adjacency", bm_nav_ids<adjacency_mesh>);
+#if IDAS_BENCH_WITH_CGAL
+    benchmark::RegisterBenchmark("harmonic/reduced_100k", bm_harmonic_reduced<indexed_mesh>)
+        ->Unit(benchmark::kMillisecond)
+        ->Iterations(3);
+    benchmark::RegisterBenchmark("harmonic/reduced_100k/adjacency",
+                                 bm_harmonic_reduced<adjacency_mesh>)
+        ->Unit(benchmark::kMillisecond)
+        ->Iterations(3);
+#endif
 #if IDAS_BENCH_WITH_CGAL
     benchmark::RegisterBenchmark("pair/flip23+flip32/cgal", bm_pair_cgal);
     benchmark::RegisterBenchmark("commit/split_edge/cgal", bm_split_cgal);
     benchmark::RegisterBenchmark("mem/cgal", bm_memory_cgal);
 #endif
-    benchmark::RegisterBenchmark("mem/indexed_tet", bm_memory);
+    benchmark::RegisterBenchmark("mem/indexed_tet", bm_memory<indexed_mesh>);
+    benchmark::RegisterBenchmark("mem/adjacency_tet", bm_memory<adjacency_mesh>);
     benchmark::Initialize(&argc, argv);
     if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
     benchmark::RunSpecifiedBenchmarks();
