@@ -555,6 +555,12 @@ private:
             }
             return true;
         };
+        // The query's plane over the projection, unless the query is a needle (its rounded
+        // normal would be inaccurate): offsets of input corners from it bound the offsets
+        // of the query's part above that input triangle.
+        const vec3 nq = cross(b - a, c - a);
+        const double lq = std::max({squared_norm(b - a), squared_norm(c - b), squared_norm(a - c)});
+        const double inv_q = squared_norm(nq) >= 1e-6 * lq * lq ? 1.0 / nq[k] : 0.0;
         index_t S[max_cover];
         int n = 0;
         S[n++] = f;
@@ -573,14 +579,18 @@ private:
                     S[n++] = g;
                 }
             }
-            // Offsets from F's plane along k at the query's corners bound the distance to F
-            // when F is not steep (steep triangles magnify the offsets and their rounding).
+            // The part of the query above F is within |offset along k| of F. The offset is
+            // affine there, so its extremes over the query's corners, or over F's corners
+            // (offsets of F's corners from the query's plane), bound it. Offsets from F's
+            // plane are used only when F is not steep (it magnifies them and their rounding).
             const bool flat = std::abs(F.n[k]) >= 0.1;
             const double inv = flat ? 1.0 / F.n[k] : 0.0;
             auto offset_ok = [&](const vec3& p) {
                 return flat && std::abs(dot(F.n, p - F.t[0]) * inv) <= r;
             };
             if (offset_ok(a) && offset_ok(b) && offset_ok(c)) continue;
+            auto below_ok = [&](const vec3& t) { return std::abs(dot(nq, t - a) * inv_q) <= r; };
+            if (inv_q != 0 && below_ok(F.t[0]) && below_ok(F.t[1]) && below_ok(F.t[2])) continue;
             // Clip the query by F's prism along k (F's edges moved out by the tolerance);
             // the polygon's corners, on the query, decide: by offset, else by distance.
             vec3 P[9] = {a, b, c}, P2[9];
