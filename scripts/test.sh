@@ -9,4 +9,4 @@ ctest --preset release -j"$(nproc)"
 # The parallel executor's tests (triangle and tet) again under ThreadSanitizer (exit code 66 on any report).
 cmake --preset tsan
 cmake --build --preset tsan --target idas_parallel_tests
-./build/tsan/tests/idas_parallel_tests -tc="parallel*,METIS*,harmonic*,vertex_try_lock*" -tce="*envelope*"
+./build/tsan/tests/idas_parallel_tests -tc="parallel*,METIS*,harmonic*,adjacency*,vertex_try_lock*" -tce="*envelope*"
