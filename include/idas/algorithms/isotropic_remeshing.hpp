@@ -24,10 +24,13 @@
 #include <boost/container/small_vector.hpp>
 
 #include <cmath>
+#include <exception>
 #include <memory>
 #include <numbers>
 #include <optional>
+#include <thread>
 #include <tuple>
+#include <utility>
 
 namespace idas::algorithms {
 
@@ -354,6 +357,36 @@ struct remesh_smooth_spec : detail::with_invariants<Extra...> {
     }
 };
 
+namespace detail {
+/// A job on its own thread, joined by wait() or at the latest by the destructor; wait()
+/// rethrows what the job threw.
+class background_task {
+public:
+    template <class Job>
+    void start(Job job) {
+        thread_ = std::thread([this, job = std::move(job)]() mutable {
+            try {
+                job();
+            } catch (...) {
+                failure_ = std::current_exception();
+            }
+        });
+    }
+    void wait() {
+        if (!thread_.joinable()) return;
+        thread_.join();
+        if (failure_) std::rethrow_exception(std::exchange(failure_, nullptr));
+    }
+    ~background_task() {
+        if (thread_.joinable()) thread_.join();
+    }
+
+private:
+    std::thread thread_;
+    std::exception_ptr failure_;
+};
+} // namespace detail
+
 struct remeshing_report {
     unsigned iterations = 0;
     std::uint64_t splits = 0, collapses = 0, swaps = 0, smooths = 0;
@@ -374,9 +407,18 @@ struct isotropic_remeshing {
         s.feature = m.template add_vertex_attribute<std::uint8_t>("remesh_feature", 0);
         s.boundary = m.template add_vertex_attribute<std::uint8_t>("remesh_boundary", 0);
         s.smoothed = m.template add_vertex_attribute<std::uint32_t>("remesh_smoothed", 0);
-        {
-            auto [V, F] = m.to_arrays();
-            if (o.project) s.input = std::make_shared<const triangle_aabb_tree>(V, F);
+        // Only smoothing projects onto the input, so with several threads its tree is
+        // built beside the first split and collapse phases instead of before them (on
+        // armadillo x4 the build is 0.35 s, a tenth of a serial remesh).
+        detail::background_task tree_build;
+        if (o.project) {
+            auto build = [&s, arrays = m.to_arrays()] {
+                s.input = std::make_shared<const triangle_aabb_tree>(arrays.first, arrays.second);
+            };
+            if (exec.threads > 1)
+                tree_build.start(std::move(build));
+            else
+                build();
         }
         mark_frozen(m, s, o);
 
@@ -396,6 +438,7 @@ struct isotropic_remeshing {
                 executor<remesh_swap_spec<Extra...>, Mesh, Lock, queue::fifo, Partition>::run(
                     m, swap, exec);
             ++s.pass;
+            tree_build.wait();
             const auto d =
                 executor<remesh_smooth_spec<Extra...>, Mesh, Lock, queue::fifo, Partition>::run(
                     m, smooth, exec);
