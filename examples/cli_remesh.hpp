@@ -13,6 +13,7 @@ struct remesh_arguments {
     double feature_angle = -1;
     bool keep_boundary = true;
     bool as_json = false, ascii = false;
+    std::string backend = "indexed";
 };
 
 template <class Mesh, class... Extra>
@@ -26,6 +27,7 @@ idas::algorithms::remeshing_report remesh_with(Mesh& m,
                                                  Extra...>::run(m, o, exec, extra...);
 }
 
+template <class Mesh>
 int run_remesh(const remesh_arguments& a) {
     const stopwatch total;
     idas::io::format_of(a.out); // an unknown output extension fails before any work
@@ -34,7 +36,7 @@ int run_remesh(const remesh_arguments& a) {
         throw idas::input_error("--edge-length must be positive");
     const idas::io::surface s = load(a.in);
     const mesh_stats in_stats = compute_stats(s);
-    std::optional<idas::tri_mesh<>> built;
+    std::optional<Mesh> built;
     try {
         built.emplace(s.vertices, s.faces);
     } catch (const idas::input_error& e) {
@@ -71,6 +73,7 @@ int run_remesh(const remesh_arguments& a) {
         j["input_faces"] = s.faces.size();
         j["output_faces"] = result.faces.size();
         j["threads"] = a.threads;
+        j["backend"] = a.backend;
         j["iterations"] = r.iterations;
         j["envelope"] = a.envelope > 0 ? json(a.envelope * in_stats.diagonal) : json(nullptr);
         j["splits"] = r.splits;

@@ -7,9 +7,12 @@
 //                                              random local operations guarded by invariants
 //   idas decimate IN OUT (--ratio R | --faces N) [--algorithm A] [--threads T] [--backend B]
 //                                              shortest edge collapse or QSlim
+//   idas remesh IN OUT --edge-length L [--absolute] [--iterations K] [--threads T]
+//               [--envelope EPS] [--backend B]     isotropic remeshing (cli_remesh.hpp)
 //   idas harmonic OUT (--points IN | --gaussian N [--seed S]) [--mode M] [--threads T]
 //                                              harmonic triangulation of points (cli_harmonic.hpp)
-// B is the connectivity backend, indexed (default) or corner-table.
+// B is the triangle connectivity backend, indexed (default) or corner-table (harmonic:
+// tet backend, indexed or adjacency).
 // Surface or tets is decided by the extension: .msh is a tet mesh (MSH 2.2/4.1, read and
 // write), .vtu a tet mesh (write only), the rest triangle surfaces (see cli_tet.hpp).
 //
@@ -66,7 +69,7 @@ using idas::vec3;
 
 // ---- connectivity backends ------------------------------------------------------------------
 
-/// `--backend`: the editing commands (demo, decimate) run on either triangle backend;
+/// `--backend`: the editing commands (demo, decimate, remesh) run on either triangle backend;
 /// each is a separate instantiation of the same code.
 const std::vector<std::string> backend_names = {"indexed", "corner-table"};
 
@@ -813,6 +816,9 @@ int run(int argc, char** argv) {
                        "keep edges sharper than this dihedral angle (degrees)");
     remesh->add_flag("!--free-boundary", ra.keep_boundary, "let boundary vertices move and vanish");
     remesh->add_flag("--json", ra.as_json, "print one JSON object instead of text");
+    remesh->add_option("--backend", ra.backend, "connectivity backend: indexed or corner-table")
+        ->check(CLI::IsMember(backend_names))
+        ->capture_default_str();
     remesh->add_flag("--ascii", ra.ascii, "write PLY and STL as text instead of binary");
 
     harmonic_arguments ha;
@@ -832,7 +838,9 @@ int run(int argc, char** argv) {
     }
 
     if (info->parsed()) return is_tet_path(in) ? run_tet_info(in, as_json) : run_info(in, as_json);
-    if (remesh->parsed()) return run_remesh(ra);
+    if (remesh->parsed())
+        return with_backend(
+            ra.backend, [&]<class Mesh>(std::type_identity<Mesh>) { return run_remesh<Mesh>(ra); });
     if (harmonic->parsed()) return run_harmonic(ha);
     if (decimate->parsed())
         return with_backend(backend, [&]<class Mesh>(std::type_identity<Mesh>) {

@@ -281,6 +281,14 @@ expect_field "remesh" "d['output_stats']['valence']['interior_valence6_fraction'
 expect_field "remesh" "abs(d['output_stats']['edge_length']['mean'] / d['target_edge_length'] - 1) < 0.1" True
 run info "$TMP/rem.ply" --json
 expect_field "remeshed" "d['euler_characteristic']" 2
+run remesh "$DATA/bunny.off" "$TMP/rem_ct.ply" --edge-length 0.02 --iterations 3 --threads 2 --backend corner-table --json
+expect_rc "remesh --backend corner-table" 0
+expect_field "remesh --backend corner-table" "d['backend']" corner-table
+expect_field "remesh --backend corner-table" "d['output_stats']['valence']['interior_valence6_fraction'] > 0.6" True
+run info "$TMP/rem_ct.ply" --json
+expect_field "remeshed corner-table" "d['euler_characteristic']" 2
+run remesh "$DATA/bunny.off" "$TMP/x.obj" --backend linked-list
+expect_error "remesh unknown backend" 2 'backend'
 run remesh "$DATA/37989_sf.obj" "$TMP/rem_nm.obj"
 expect_error "remesh non-manifold" 2 'non-manifold'
 run remesh "$DATA/bunny.off" "$TMP/x.obj" --edge-length 0

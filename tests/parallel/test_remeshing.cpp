@@ -174,12 +174,13 @@ TEST_CASE_TEMPLATE("remeshing stays close to the input surface", Mesh, IDAS_TRI_
 }
 
 #if IDAS_HAS_CGAL
-TEST_CASE("parallel remeshing with the envelope invariant stays within eps") {
+TEST_CASE_TEMPLATE("parallel remeshing with the envelope invariant stays within eps", Mesh,
+                   IDAS_TRI_MESHES) {
     // The exact envelope refuses any operation whose new triangles leave the eps-envelope
     // of the input; an independent sampled distance check must agree, on 2 and 4 threads.
     for (unsigned threads : {1u, 2u, 4u}) {
         CAPTURE(threads);
-        auto m = idas::test::load("blub.obj");
+        auto m = idas::test::load<Mesh>("blub.obj");
         const auto [V0, F0] = m.to_arrays();
         const triangle_aabb_tree input(V0, F0);
         const double eps = 1e-3 * input.diagonal();
@@ -188,8 +189,8 @@ TEST_CASE("parallel remeshing with the envelope invariant stays within eps") {
         o.target_length = 0.02 * input.diagonal(); // coarser than the input: chords would leave
         o.iterations = 3;
         const auto r =
-            isotropic_remeshing<tri_mesh<>, lock::vertex_try_lock, queue::dary_heap<4>,
-                                partition::morton, envelope>::run(m, o, {.threads = threads}, env);
+            isotropic_remeshing<Mesh, lock::vertex_try_lock, queue::dary_heap<4>, partition::morton,
+                                envelope>::run(m, o, {.threads = threads}, env);
         CHECK(r.collapses > 0);
         REQUIRE_FALSE(find_inconsistency(m).has_value());
         const auto [V, F] = m.to_arrays();
