@@ -51,9 +51,8 @@ struct remeshing_state {
     // a collapse's survivor is if either end was), so valences are O(1) to get.
     vertex_attribute<std::uint8_t> boundary;
     std::shared_ptr<const triangle_aabb_tree> input;
-    // Smoothing pass stamp: a vertex whose `smoothed` equals `pass` was moved in this pass.
-    // Moving a vertex renews its neighbours' faces (their queue entries go stale), so the
-    // smoothing phase re-enqueues neighbours not yet moved and skips those already moved.
+    // Smoothing pass stamp: a vertex whose `smoothed` equals `pass` was moved in this pass
+    // (so each vertex moves at most once per pass).
     vertex_attribute<std::uint32_t> smoothed;
     std::uint32_t pass = 0;
 };
@@ -341,16 +340,6 @@ struct remesh_smooth_spec : detail::with_invariants<Extra...> {
         m.positions().set(r.anchor.vid, q);
         m.attribute(s->smoothed).set(r.anchor.vid, s->pass);
         return true;
-    }
-    // The move renewed the neighbours' faces: re-enqueue those still to be moved (their
-    // old entries are stale). The neighbours are in the locked region.
-    template <class Mesh, class Push>
-    void renew(op::smooth_vertex, const Mesh& m, const op_result<typename Mesh::tuple>& r,
-               Push& push) const {
-        boost::container::small_vector<index_t, 32> ring;
-        m.one_ring_vertices(r.anchor.vid, ring);
-        for (index_t w : ring)
-            if (movable(m, w)) push(op::smooth_vertex{}, m.tuple_from_vertex(w));
     }
 };
 

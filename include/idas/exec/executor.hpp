@@ -21,6 +21,7 @@
 //                                            every live vertex: parallel workers then build
 //                                            their own queues, from the vertices of their part
 //   prepare(mesh)                            one-off set-up before the first priority
+//   prepare(mesh, options)                   (or so, told the thread count, to share it out)
 //   lock_region(Op, mesh, tuple, claim)      vertices to hold (default: the closed stars of
 //                                            the operation's vertices, see below)
 //   parallel_growth(mesh)                    slots to set aside for new simplices in parallel:
@@ -252,7 +253,10 @@ public:
     /// `lock::none` or one thread is asked for; otherwise on a oneTBB arena.
     static run_report run(Mesh& m, Spec& spec, const exec_options& options = {}) {
         const auto start = std::chrono::steady_clock::now();
-        if constexpr (requires { spec.prepare(m); }) spec.prepare(m);
+        if constexpr (requires { spec.prepare(m, options); })
+            spec.prepare(m, options);
+        else if constexpr (requires { spec.prepare(m); })
+            spec.prepare(m);
         run_report report;
         // Operations that create simplices run in parallel only on backends that can deal
         // out new slots to workers.
@@ -365,6 +369,27 @@ private:
         return report;
     }
 
+    /// Whether the entry's operation kind acts on a vertex (smoothing).
+    static bool is_vertex_entry(const entry& e) noexcept {
+        bool vertex = false;
+        ops::dispatch(e.kind, [&](auto op) { vertex = detail::is_vertex_op<decltype(op)>; });
+        return vertex;
+    }
+    /// A vertex operation is about its vertex, not the cell its tuple was made in: moving
+    /// a neighbour renews that cell, which must not cancel the entry (a smoothing pass
+    /// would skip two thirds of the vertices). Other entries go stale with their cell.
+    static bool still_wanted(const Mesh& m, const entry& e) noexcept {
+        if (m.is_valid(e.tuple)) return true;
+        return is_vertex_entry(e) && e.tuple.vid < m.vertex_slots() && m.vertex_alive(e.tuple.vid);
+    }
+    /// Makes the entry's tuple current (re-anchoring a vertex entry); false if it is stale.
+    static bool current(const Mesh& m, entry& e) noexcept {
+        if (m.is_valid(e.tuple)) return true;
+        if (!still_wanted(m, e)) return false;
+        e.tuple = m.tuple_from_vertex(e.tuple.vid);
+        return m.is_valid(e.tuple);
+    }
+
     static void drain_serial(Mesh& m, Spec& spec, op_context<Mesh>& ctx, queue_type& q, progress& p,
                              run_report& report) {
         if (should_stop(spec, p)) return;
@@ -372,7 +397,7 @@ private:
         std::size_t pushed_since_sweep = 0;
         while (q.pop(e)) {
             ++report.popped;
-            if (!m.is_valid(e.tuple)) {
+            if (!current(m, e)) {
                 ++report.stale;
                 continue;
             }
@@ -409,7 +434,7 @@ private:
             // decimation specs stopped pushing unchanged rim edges: pops kept pace.)
             if (pushed_since_sweep > q.size() / 2 + 4096) {
                 const std::size_t before = q.size();
-                q.erase_if([&](const entry& x) { return !m.is_valid(x.tuple); });
+                q.erase_if([&](const entry& x) { return !still_wanted(m, x); });
                 report.purged += before - q.size();
                 pushed_since_sweep = 0;
             }
@@ -437,8 +462,8 @@ private:
     /// vertices: the tuple's vertex for smoothing, its face's three for a 2-3 swap, its
     /// edge's two otherwise.
     template <class Op>
-    static claim_result claim(Spec& spec, const Mesh& m, const tuple& t, Lock& locks,
-                              std::uint32_t me, held_vertices& held) {
+    static claim_result claim(Spec& spec, const Mesh& m, tuple& t, Lock& locks, std::uint32_t me,
+                              held_vertices& held) {
         auto take = [&](index_t v) {
             if constexpr (requires { locks.try_acquire(v, me); }) {
                 // Stars overlap (a triangle edge's region: ~36 claims of ~14 vertices; a
@@ -455,6 +480,9 @@ private:
             }
         };
         if (t.vid >= m.vertex_slots() || !take(t.vid)) return claim_result::busy;
+        // Holding the vertex freezes its star, so a vertex entry can be re-anchored in it.
+        if constexpr (detail::is_vertex_op<Op>)
+            if (m.vertex_alive(t.vid)) t = m.tuple_from_vertex(t.vid);
         bool in_star = false;
         for (index_t f : detail::cells_around(m, t.vid)) in_star |= f == detail::cell_of(m, t);
         if (!in_star || !m.is_valid(t)) return claim_result::stale;
@@ -580,7 +608,11 @@ private:
                 tbb::spin_mutex::scoped_lock lk(me.mutex);
                 if (me.pushed_since_purge <= me.q.size() / 2 + 4096) return;
                 const std::size_t before = me.q.size();
-                me.q.erase_if([&](const entry& x) { return detail::version_moved_on(m, x.tuple); });
+                // Vertex entries stay (see still_wanted); whether their vertex is still
+                // alive is checked under its lock.
+                me.q.erase_if([&](const entry& x) {
+                    return !is_vertex_entry(x) && detail::version_moved_on(m, x.tuple);
+                });
                 me.report.purged += before - me.q.size();
                 me.pushed_since_purge = 0;
             }
