@@ -2,6 +2,7 @@
 // order (and so decimates identically), and vertex_try_lock keeps claims exclusive with
 // more threads than cores.
 #include "../test_support.hpp"
+#include <algorithm>
 
 #include <idas/algorithms/shortest_edge_collapse.hpp>
 
@@ -155,6 +156,21 @@ TEST_CASE_TEMPLATE("partitions cover the live vertices of a mesh with many dead 
     };
     check(partition::metis::assign(m, 4));
     check(partition::morton::assign(m, 4));
+}
+
+TEST_CASE("morton partition: the cuts by selection are those of a full sort") {
+    const auto m = idas::test::load("bunny.off");
+    auto sorted = partition::morton::keys(m);
+    REQUIRE(sorted.size() == m.n_vertices());
+    std::sort(sorted.begin(), sorted.end());
+    for (unsigned parts : {2u, 3u, 4u, 7u, 16u}) {
+        CAPTURE(parts);
+        const auto part = partition::morton::assign(m, parts);
+        std::size_t wrong = 0;
+        for (std::size_t i = 0; i < sorted.size(); ++i)
+            wrong += part[sorted[i].second] != i * parts / sorted.size();
+        CHECK(wrong == 0);
+    }
 }
 
 TEST_CASE("vertex_try_lock: re-claiming is free for the holder, refused to others") {
