@@ -34,7 +34,7 @@ int main(int argc, char** argv) {
     std::size_t n = 1000000;
     std::uint64_t seed = 1;
     std::string input, mode = "complete";
-    unsigned threads = 1, rounds = 2;
+    unsigned threads = 1, rounds = idas::algorithms::harmonic_options{}.rounds;
     double seed_above = idas::algorithms::harmonic_options{}.seed_above;
     bool keep_max = true, delaunay_only = false;
     for (int i = 1; i < argc; ++i) {

@@ -16,7 +16,7 @@ struct harmonic_arguments {
     std::uint64_t seed = 1;
     std::string mode = "complete";
     std::string backend = "indexed";
-    unsigned threads = 1, rounds = 2;
+    unsigned threads = 1, rounds = idas::algorithms::harmonic_options{}.rounds;
     bool as_json = false, ascii = false;
     CLI::Option* points_option = nullptr;
     CLI::Option* gaussian_option = nullptr;

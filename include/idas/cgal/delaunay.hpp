@@ -4,6 +4,7 @@
 #pragma once
 
 #include <idas/core/types.hpp>
+#include <idas/exec/partition.hpp>
 #include <idas/predicates/orient.hpp>
 
 #include <CGAL/Delaunay_triangulation_3.h>
@@ -60,6 +61,27 @@ inline delaunay_result delaunay_tetrahedralization(const std::vector<vec3>& poin
         r.vertices.push_back(points[v->info()]);
     }
     r.duplicates = points.size() - r.vertices.size();
+    // Then along a Morton curve: CGAL inserts in rounds of a randomised order (BRIO), each
+    // round sorted, so neighbours in space came from different rounds, far apart in the
+    // storage order. Along the curve a vertex's star, and its lock words in a parallel
+    // run, sit in a few cache lines.
+    {
+        struct view { // what partition::morton::keys reads
+            const std::vector<vec3>& p;
+            index_t vertex_slots() const noexcept { return index_t(p.size()); }
+            bool vertex_alive(index_t) const noexcept { return true; }
+            const vec3& position(index_t v) const noexcept { return p[v]; }
+        };
+        auto keyed = partition::morton::keys(view{r.vertices});
+        std::sort(keyed.begin(), keyed.end());
+        std::vector<index_t> rank(keyed.size());
+        std::vector<vec3> sorted(keyed.size());
+        for (std::size_t i = 0; i < keyed.size(); ++i)
+            rank[keyed[i].second] = index_t(i), sorted[i] = r.vertices[keyed[i].second];
+        for (index_t& id : new_id)
+            if (id != invalid_index) id = rank[id];
+        r.vertices = std::move(sorted);
+    }
     std::vector<tet_indices> cells;
     cells.reserve(dt.number_of_finite_cells());
     std::vector<std::size_t> first(r.vertices.size() + 1, 0);
