@@ -46,6 +46,9 @@ TEST_CASE("harmonic triangulation in parallel: 2-3 growth beyond the slot pools"
         m, spec, {.threads = 4});
     CHECK(r.succeeded > 0);
     CHECK(r.deferred_to_serial > 0);
+    // No stopping criterion, so the workers kept no live counts: the report sums them.
+    CHECK(r.faces == std::int64_t(m.n_tets()));
+    CHECK(r.vertices == std::int64_t(m.n_vertices()));
     CHECK(find_inconsistency(m, true) == std::nullopt);
     CHECK(test::inverted_or_flat_tets(m) == 0);
     CHECK(harmonic_statistics(m).total_energy < before.total_energy);

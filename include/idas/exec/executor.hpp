@@ -321,6 +321,14 @@ public:
             return false;
     }
 
+    /// Whether the spec stops on progress (a goal or a criterion). If not, parallel
+    /// workers keep no shared live counts: one contended atomic add per success saved
+    /// (the harmonic and remeshing phases run until their queues are empty).
+    static constexpr bool watches_progress = requires(Spec & spec, const progress& p) {
+        spec.remaining(p);
+    }
+    || requires(Spec& spec, const progress& p) { spec.stop(p); };
+
     static bool should_stop(Spec& spec, const progress& p) {
         if constexpr (requires {
                           { spec.stop(p) } -> std::convertible_to<bool>;
@@ -704,17 +712,22 @@ private:
                         me.report.pushed += renewed.size();
                         me.pushed_since_purge += renewed.size();
                     }
-                    const std::int64_t dfaces = me.ctx.face_delta - fd,
-                                       dverts = me.ctx.vertex_delta - vd;
-                    const std::int64_t delta = pack(dfaces, dverts);
-                    progress now = unpack(live.fetch_add(delta, std::memory_order_relaxed) + delta);
-                    me.successes.store(me.report.succeeded,
-                                       std::memory_order_relaxed); // owner writes only
-                    if (goal_reached(spec, now)) stop.store(true, std::memory_order_relaxed);
-                    if (++since_check >= o.check_every) {
-                        since_check = 0;
-                        now.successes = global_progress().successes;
-                        if (should_stop(spec, now)) stop.store(true, std::memory_order_relaxed);
+                    if constexpr (watches_progress) {
+                        const std::int64_t dfaces = me.ctx.face_delta - fd,
+                                           dverts = me.ctx.vertex_delta - vd;
+                        const std::int64_t delta = pack(dfaces, dverts);
+                        progress now =
+                            unpack(live.fetch_add(delta, std::memory_order_relaxed) + delta);
+                        me.successes.store(me.report.succeeded,
+                                           std::memory_order_relaxed); // owner writes only
+                        if (goal_reached(spec, now)) stop.store(true, std::memory_order_relaxed);
+                        if (++since_check >= o.check_every) {
+                            since_check = 0;
+                            now.successes = global_progress().successes;
+                            if (should_stop(spec, now)) stop.store(true, std::memory_order_relaxed);
+                        }
+                    } else {
+                        (void)fd, (void)vd, (void)since_check;
                     }
                     purge_if_bloated(me);
                 });
@@ -722,6 +735,14 @@ private:
         };
 
         detail::run_workers(T, P, drain);
+        if constexpr (!watches_progress) { // the live counts were not kept: sum them now
+            std::int64_t faces = start.faces, vertices = start.vertices;
+            for (auto& w : workers) {
+                faces += w->ctx.face_delta, vertices += w->ctx.vertex_delta;
+                w->successes.store(w->report.succeeded, std::memory_order_relaxed);
+            }
+            live.store(pack(faces, vertices), std::memory_order_relaxed);
+        }
 
         run_report report;
         report.threads = T;
