@@ -21,7 +21,8 @@
 //                                            every live vertex: parallel workers then build
 //                                            their own queues, from the vertices of their part
 //   prepare(mesh)                            one-off set-up before the first priority
-//   prepare(mesh, options)                   (or so, told the thread count, to share it out)
+//   prepare(mesh, options)                   or the same told the run's options, to share
+//                                            the set-up out over its threads
 //   lock_region(Op, mesh, tuple, claim)      vertices to hold (default: the closed stars of
 //                                            the operation's vertices, see below)
 //   parallel_growth(mesh)                    slots to set aside for new simplices in parallel:
@@ -250,7 +251,7 @@ public:
     using ops = detail::op_list_traits<typename Spec::operations>;
 
     /// Runs the schedule to completion (or until `stop`). Serial when the lock policy is
-    /// `lock::none` or one thread is asked for; otherwise on a oneTBB arena.
+    /// `lock::none` or one thread is asked for; otherwise on one thread per worker.
     static run_report run(Mesh& m, Spec& spec, const exec_options& options = {}) {
         const auto start = std::chrono::steady_clock::now();
         if constexpr (requires { spec.prepare(m, options); })
