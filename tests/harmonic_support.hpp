@@ -13,10 +13,20 @@
 
 namespace idas::test {
 
-inline tet_mesh<> delaunay_mesh(const std::vector<vec3>& points) {
+template <class Mesh = tet_mesh<>>
+Mesh delaunay_mesh(const std::vector<vec3>& points) {
     const auto dt = cgal::delaunay_tetrahedralization(points);
-    return tet_mesh<>(dt.vertices, dt.tets);
+    return Mesh(dt.vertices, dt.tets);
 }
+
+/// Complete-mode flips with a tiny pool for new tets, so 2-3 swaps run out of slots and
+/// go to the serial pass.
+struct small_pool : algorithms::harmonic_flip_spec<algorithms::harmonic_mode::complete> {
+    template <class Mesh>
+    std::pair<index_t, index_t> parallel_growth(const Mesh&) const {
+        return {0, 8};
+    }
+};
 
 /// The boundary surface as a sorted list of triangles of positions, each rotated to start
 /// at its smallest corner (orientation kept): equal iff the hull is the same surface.
@@ -50,7 +60,8 @@ inline std::vector<vec3> vertex_set(const tet_mesh<>& m) {
 }
 
 /// Every live tet positively oriented by the exact predicate.
-inline std::size_t inverted_or_flat_tets(const tet_mesh<>& m) {
+template <class Mesh>
+std::size_t inverted_or_flat_tets(const Mesh& m) {
     std::size_t n = 0;
     const auto p = m.positions();
     for (index_t t = 0; t < m.tet_slots(); ++t) {

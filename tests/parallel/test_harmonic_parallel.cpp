@@ -28,21 +28,11 @@ TEST_CASE("harmonic triangulation in parallel: 8 threads, both modes") {
     }
 }
 
-namespace {
-/// A tiny pool for new tets, so 2-3 swaps run out of slots and go to the serial pass.
-struct small_pool : harmonic_flip_spec<harmonic_mode::complete> {
-    template <class Mesh>
-    std::pair<index_t, index_t> parallel_growth(const Mesh&) const {
-        return {0, 8};
-    }
-};
-} // namespace
-
 TEST_CASE("harmonic triangulation in parallel: 2-3 growth beyond the slot pools") {
     auto m = test::delaunay_mesh(io::gaussian_points(5000, 5));
     const auto before = harmonic_statistics(m);
-    small_pool spec;
-    const auto r = executor<small_pool, tet_mesh<>, lock::vertex_try_lock, queue::fifo>::run(
+    test::small_pool spec;
+    const auto r = executor<test::small_pool, tet_mesh<>, lock::vertex_try_lock, queue::fifo>::run(
         m, spec, {.threads = 4});
     CHECK(r.succeeded > 0);
     CHECK(r.deferred_to_serial > 0);
