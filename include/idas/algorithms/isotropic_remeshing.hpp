@@ -5,7 +5,7 @@
 //   collapse  edges shorter than 4/5 L, shortest first, into one of their endpoints, unless
 //             a new edge would be longer than 4/3 L
 //   swap      edges whose flip brings the four vertices' valences towards 6 (4 on the
-//             boundary)
+//             boundary), the flips giving the best-shaped triangles first
 //   smooth    every vertex towards the area-weighted centroid of its faces, within its tangent
 //             plane, then back onto the input surface (closest point, AABB tree)
 //
@@ -267,6 +267,18 @@ struct remesh_swap_spec : detail::with_invariants<Extra...> {
         if (then < now) return new_min >= 0.5 * old_min;
         return old_min < 0.35 && new_min > 1.5 * old_min; // 0.35 rad = 20 degrees
     }
+    // Flips whose new triangles have the largest smallest angle run first. Right after the
+    // splits, most vertices have valence 4 or 8 and neighbouring edges compete for the same
+    // valence gains: in first-come order, flips into thin triangles took them and blocked
+    // the flips that would have made the pattern regular (bunny, one iteration: 56% of the
+    // interior vertices of valence 6 in fifo order, 89% in this order, CGAL 82%).
+    template <class Mesh>
+    double priority(op::swap_edge, const Mesh& m, const typename Mesh::tuple& t) const {
+        if (m.is_boundary_edge(t)) return 0;
+        const auto [a, b] = m.edge_vertices(t);
+        const index_t c = m.opposite_vertex(t), d = m.opposite_vertex(*m.switch_face(t));
+        return -std::min(detail::min_angle(m, c, d, a), detail::min_angle(m, d, c, b));
+    }
     // A flip renews its two faces, so the entries of the quad's four outer edges went
     // stale: enqueue them again. Terminates: a flip either lowers the valence deviation or
     // keeps it and replaces the quad's smallest angle by a larger one.
@@ -420,9 +432,8 @@ struct isotropic_remeshing {
             const auto b =
                 executor<remesh_collapse_spec<Extra...>, Mesh, Lock, Queue, Partition>::run(
                     m, collapse, exec);
-            const auto c =
-                executor<remesh_swap_spec<Extra...>, Mesh, Lock, queue::fifo, Partition>::run(
-                    m, swap, exec);
+            const auto c = executor<remesh_swap_spec<Extra...>, Mesh, Lock, Queue, Partition>::run(
+                m, swap, exec);
             ++s.pass;
             tree_build.wait();
             const auto d =
