@@ -4,7 +4,7 @@
 //
 //   bench_harmonic [--points N] [--seed S] [--input FILE] [--mode reduced|complete]
 //                  [--threads T] [--rounds R] [--seed-above X] [--no-keep-max]
-//                  [--delaunay-only]
+//                  [--delaunay-only] [--lock try|own-part] [--parts-per-thread K]
 #if IDAS_BENCH_WITH_CGAL
 #include <idas/algorithms/harmonic_triangulation.hpp>
 #include <idas/cgal/delaunay.hpp>
@@ -37,6 +37,8 @@ int main(int argc, char** argv) {
     unsigned threads = 1, rounds = idas::algorithms::harmonic_options{}.rounds;
     double seed_above = idas::algorithms::harmonic_options{}.seed_above;
     bool keep_max = true, delaunay_only = false;
+    std::string lock = "own-part";
+    unsigned parts_per_thread = 1;
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         const auto value = [&] {
@@ -60,6 +62,10 @@ int main(int argc, char** argv) {
             rounds = static_cast<unsigned>(std::stoul(value()));
         else if (a == "--seed-above")
             seed_above = std::stod(value());
+        else if (a == "--lock")
+            lock = value();
+        else if (a == "--parts-per-thread")
+            parts_per_thread = static_cast<unsigned>(std::stoul(value()));
         else if (a == "--no-keep-max")
             keep_max = false;
         else if (a == "--delaunay-only")
@@ -68,6 +74,10 @@ int main(int argc, char** argv) {
             std::fprintf(stderr, "unknown argument %s\n", a.c_str());
             return 2;
         }
+    }
+    if (lock != "try" && lock != "own-part") {
+        std::fprintf(stderr, "--lock must be try or own-part\n");
+        return 2;
     }
     if (mode != "reduced" && mode != "complete") {
         std::fprintf(stderr, "--mode must be reduced or complete\n");
@@ -100,8 +110,13 @@ int main(int argc, char** argv) {
         o.seed_above = seed_above;
         o.keep_max = keep_max;
         o.exec.threads = threads;
+        o.exec.parts_per_thread = parts_per_thread;
         const double cpu0 = cpu_seconds();
-        const auto rep = idas::algorithms::harmonic_triangulation<>::run(m, o);
+        using idas::algorithms::harmonic_triangulation;
+        const auto rep =
+            lock == "try"
+                ? harmonic_triangulation<idas::tet_mesh<>, idas::lock::vertex_try_lock>::run(m, o)
+                : harmonic_triangulation<idas::tet_mesh<>, idas::lock::own_part_first>::run(m, o);
         const double flip_cpu = cpu_seconds() - cpu0;
         const auto after = idas::algorithms::harmonic_statistics(m);
         std::printf(
@@ -113,7 +128,8 @@ int main(int argc, char** argv) {
             "\"tets_before\":%zu,\"tets_after\":%zu,\"mean_index_before\":%.4f,"
             "\"mean_index_after\":%.4f,\"max_energy_before\":%.4g,\"max_energy_after\":%.4g,"
             "\"flips\":%llu,\"smoothed\":%llu,\"attempted\":%llu,\"lock_failures\":%llu,"
-            "\"deferred_to_serial\":%llu}\n",
+            "\"deferred_to_serial\":%llu,\"crossed_parts\":%llu,\"owner_seconds\":%.3f,\"lock\":\"%"
+            "s\"}\n",
             points.size(), mode.c_str(), threads, rounds, seed_above, keep_max ? "true" : "false",
             delaunay_seconds, delaunay_cpu, build_seconds, rep.seconds, rep.flip_seconds,
             rep.smooth_seconds, flip_cpu, before.tets, after.tets, before.mean_index,
@@ -122,7 +138,8 @@ int main(int argc, char** argv) {
             static_cast<unsigned long long>(rep.smoothed),
             static_cast<unsigned long long>(rep.attempted),
             static_cast<unsigned long long>(rep.lock_failures),
-            static_cast<unsigned long long>(rep.deferred_to_serial));
+            static_cast<unsigned long long>(rep.deferred_to_serial),
+            static_cast<unsigned long long>(rep.crossed_parts), rep.owner_seconds, lock.c_str());
     } catch (const std::exception& e) {
         std::fprintf(stderr, "error: %s\n", e.what());
         return 2;

@@ -8,7 +8,8 @@
 #
 #   cgal      CGAL Delaunay_triangulation_3 of the N points alone (the reference time)
 #   idas      Delaunay + flips, reduced (3-2 only) and complete (2-3, 3-2, 4-4, smoothing)
-#             modes, on 1 and 2 threads
+#             modes, on 1 and 2 threads; on 2 threads with the default lock policy
+#             (own_part_first) and with vertex_try_lock ("-try" cases)
 #
 # One JSON line per run goes to build/bench/harmonic_results.jsonl (or --out); a Markdown table of
 # the fastest run of each case, with the ratios the issue's targets are about (complete
@@ -61,8 +62,10 @@ for ((rep = 1; rep <= repeats; ++rep)); do
     run_case cgal --delaunay-only
     run_case reduced-1 --mode reduced --threads 1
     run_case reduced-2 --mode reduced --threads 2
+    run_case reduced-2-try --mode reduced --threads 2 --lock try
     run_case complete-1 --mode complete --threads 1
     run_case complete-2 --mode complete --threads 2
+    run_case complete-2-try --mode complete --threads 2 --lock try
 done
 
 echo
@@ -71,8 +74,9 @@ echo "command: bench/run_harmonic.sh --points $points --seed $seed --repeats $re
 python3 - "$results" <<'EOF'
 import json, sys
 runs = [json.loads(l) for l in open(sys.argv[1]) if l.strip()]
-best = {}
+best, every = {}, {}
 for r in runs:
+    every.setdefault(r["case"], []).append(r["delaunay_seconds"] if r["case"] == "cgal" else r["flip_seconds"])
     key = r["case"]
     t = r["delaunay_seconds"] if key == "cgal" else r["flip_seconds"]
     if key not in best or t < best[key][0]:
@@ -82,21 +86,27 @@ print()
 print("| case | threads | Delaunay s | flipping s | tets before | tets after | mean harmonic index before | after | flips | smoothed |")
 print("|---|---|---|---|---|---|---|---|---|---|")
 print(f"| CGAL Delaunay alone | 1 | {cgal:.2f} | | {best['cgal'][1]['tets']:,} | | | | | |")
-for key in ["reduced-1", "reduced-2", "complete-1", "complete-2"]:
+for key in ["reduced-1", "reduced-2", "reduced-2-try", "complete-1", "complete-2", "complete-2-try"]:
     if key not in best:
         continue
     t, r = best[key]
-    print(f"| idas {r['mode']} | {r['threads']} | {r['delaunay_seconds']:.2f} | {t:.2f} | "
+    print(f"| idas {r['mode']} ({r.get('lock', 'try')}) | {r['threads']} | {r['delaunay_seconds']:.2f} | {t:.2f} | "
           f"{r['tets_before']:,} | {r['tets_after']:,} | {r['mean_index_before']:.4f} | "
           f"{r['mean_index_after']:.4f} | {r['flips']:,} | {r['smoothed']:,} |")
 print()
+def median(xs):
+    xs = sorted(xs)
+    return (xs[(len(xs) - 1) // 2] + xs[len(xs) // 2]) / 2
 for mode in ["reduced", "complete"]:
-    a, b = best.get(mode + "-1"), best.get(mode + "-2")
-    if a and b:
-        print(f"- {mode}: 2-thread speedup of flipping {a[0] / b[0]:.2f}x "
-              f"(flip CPU seconds {a[1]['flip_cpu_seconds']:.2f} on 1 thread, "
-              f"{b[1]['flip_cpu_seconds']:.2f} on 2; {b[1]['lock_failures']:,} lock failures, "
-              f"{b[1]['deferred_to_serial']:,} entries deferred to the serial pass)")
+    for two in [mode + "-2", mode + "-2-try"]:
+        a, b = best.get(mode + "-1"), best.get(two)
+        if a and b:
+            print(f"- {mode}, {b[1].get('lock', 'try')}: 2-thread speedup of flipping "
+                  f"{a[0] / b[0]:.2f}x fastest runs, {median(every[mode + '-1']) / median(every[two]):.2f}x medians "
+                  f"(flip CPU seconds {a[1]['flip_cpu_seconds']:.2f} on 1 thread, "
+                  f"{b[1]['flip_cpu_seconds']:.2f} on 2; {b[1].get('crossed_parts', 0):,} entries crossed parts, "
+                  f"{b[1]['lock_failures']:,} lock failures, "
+                  f"{b[1]['deferred_to_serial']:,} entries deferred to the serial pass)")
 if "complete-1" in best:
     print(f"- complete serial flipping / CGAL Delaunay of the same points: "
           f"{best['complete-1'][0] / cgal:.2f}")

@@ -9,7 +9,7 @@
 using namespace idas;
 using namespace idas::algorithms;
 
-TEST_CASE("harmonic triangulation in parallel: 8 threads, both modes") {
+TEST_CASE("harmonic triangulation in parallel: 8 threads, both modes, vertex_try_lock") {
     const auto points = io::gaussian_points(10000, 11);
     for (const auto mode : {harmonic_mode::reduced, harmonic_mode::complete}) {
         CAPTURE(int(mode));
@@ -18,7 +18,8 @@ TEST_CASE("harmonic triangulation in parallel: 8 threads, both modes") {
         o.mode = mode;
         o.exec.threads = 8;
         o.exec.max_retry = 2; // more entries take the final serial pass too
-        test::check_run(m, o);
+        // The claiming policy throughout (the default, own_part_first, has its own test).
+        test::check_run<harmonic_triangulation<tet_mesh<>, lock::vertex_try_lock>>(m, o);
         // Within reach of the serial result (the order of flips differs).
         auto s = test::delaunay_mesh(points);
         o.exec.threads = 1;

@@ -694,13 +694,15 @@ struct harmonic_options {
 
 struct harmonic_report {
     std::uint64_t flips = 0, smoothed = 0, attempted = 0;
-    std::uint64_t lock_failures = 0, deferred_to_serial = 0;
+    std::uint64_t lock_failures = 0, deferred_to_serial = 0, crossed_parts = 0;
     double seconds = 0, flip_seconds = 0, smooth_seconds = 0;
+    double owner_seconds = 0; // lock-free phases of own_part_first
 };
 
 /// The whole algorithm on one mesh type and lock policy: flips, then (complete mode)
-/// rounds of smoothing and flips.
-template <class Mesh = tet_mesh<>, lock_policy Lock = lock::vertex_try_lock,
+/// rounds of smoothing and flips. Its phases run until their queues are empty, in no
+/// particular order, so each part's own operations can all go first: own_part_first.
+template <class Mesh = tet_mesh<>, lock_policy Lock = lock::own_part_first,
           class Partition = partition::morton>
 struct harmonic_triangulation {
     template <harmonic_mode M>
@@ -715,6 +717,7 @@ struct harmonic_triangulation {
             counter += r.succeeded, rep.attempted += r.attempted;
             (&counter == &rep.flips ? rep.flip_seconds : rep.smooth_seconds) += r.seconds;
             rep.lock_failures += r.lock_failures, rep.deferred_to_serial += r.deferred_to_serial;
+            rep.crossed_parts += r.crossed_parts, rep.owner_seconds += r.owner_seconds;
         };
         // Both modes start with 3-2 swaps to convergence: they are the cheapest flips (the
         // candidates are the valence-3 edges) and do most of the work. Complete mode then

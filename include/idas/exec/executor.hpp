@@ -49,6 +49,8 @@
 #include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <cstdio>
+#include <cstdlib>
 #include <exception>
 #include <memory>
 #include <mutex>
@@ -80,6 +82,8 @@ struct run_report {
     std::uint64_t pushed = 0, popped = 0, purged = 0, stale = 0, skipped = 0, attempted = 0,
                   succeeded = 0, refused = 0;
     std::uint64_t lock_failures = 0, deferred_to_serial = 0, stolen = 0;
+    std::uint64_t crossed_parts = 0; // own_part_first: waited for the claiming phase
+    double owner_seconds = 0;        // own_part_first: time of the lock-free phase
     std::int64_t faces = 0, vertices = 0;
     unsigned threads = 1;
     double seconds = 0;
@@ -470,31 +474,21 @@ private:
     /// cell hold all of its vertices, so holding a vertex freezes its star. The operation's
     /// vertices: the tuple's vertex for smoothing, its face's three for a 2-3 swap, its
     /// edge's two otherwise.
-    template <class Op>
-    static claim_result claim(Spec& spec, const Mesh& m, tuple& t, Lock& locks, std::uint32_t me,
-                              held_vertices& held) {
-        auto take = [&](index_t v) {
-            if constexpr (requires { locks.try_acquire(v, me); }) {
-                // Stars overlap (a triangle edge's region: ~36 claims of ~14 vertices; a
-                // tet's: hundreds of a few dozen): the lock word itself says whether v is
-                // already ours (28% cheaper claims on triangle meshes than a search).
-                const int r = locks.try_acquire(v, me);
-                if (r > 0) held.push_back(v);
-                return r >= 0;
-            } else {
-                if (std::find(held.begin(), held.end(), v) != held.end()) return true;
-                if (!locks.try_lock(v, me)) return false;
-                held.push_back(v);
-                return true;
-            }
-        };
+    template <class Op, class Take>
+    static claim_result claim_with(Spec& spec, const Mesh& m, tuple& t, Take& take) {
         if (t.vid >= m.vertex_slots() || !take(t.vid)) return claim_result::busy;
-        // Holding the vertex freezes its star, so a vertex entry can be re-anchored in it.
-        if constexpr (detail::is_vertex_op<Op>)
-            if (m.vertex_alive(t.vid)) t = m.tuple_from_vertex(t.vid);
-        bool in_star = false;
-        for (index_t f : detail::cells_around(m, t.vid)) in_star |= f == detail::cell_of(m, t);
-        if (!in_star || !m.is_valid(t)) return claim_result::stale;
+        // Holding the vertex freezes its star, so a vertex entry can be re-anchored in it
+        // (to a cell of that star). Other tuples must name a cell of the held star before
+        // their version is read.
+        if constexpr (detail::is_vertex_op<Op>) {
+            if (!m.vertex_alive(t.vid)) return claim_result::stale;
+            t = m.tuple_from_vertex(t.vid);
+        } else {
+            bool in_star = false;
+            for (index_t f : detail::cells_around(m, t.vid)) in_star |= f == detail::cell_of(m, t);
+            if (!in_star) return claim_result::stale;
+        }
+        if (!m.is_valid(t)) return claim_result::stale;
         if constexpr (requires { spec.lock_region(Op{}, m, t, take); }) {
             return spec.lock_region(Op{}, m, t, take) ? claim_result::ok : claim_result::busy;
         } else {
@@ -514,6 +508,28 @@ private:
                         if (!take(w)) return claim_result::busy;
             return claim_result::ok;
         }
+    }
+
+    /// The claim under the lock policy: held vertices are recorded for release.
+    template <class Op>
+    static claim_result claim(Spec& spec, const Mesh& m, tuple& t, Lock& locks, std::uint32_t me,
+                              held_vertices& held) {
+        auto take = [&](index_t v) {
+            if constexpr (requires { locks.try_acquire(v, me); }) {
+                // Stars overlap (a triangle edge's region: ~36 claims of ~14 vertices; a
+                // tet's: hundreds of a few dozen): the lock word itself says whether v is
+                // already ours (28% cheaper claims on triangle meshes than a search).
+                const int r = locks.try_acquire(v, me);
+                if (r > 0) held.push_back(v);
+                return r >= 0;
+            } else {
+                if (std::find(held.begin(), held.end(), v) != held.end()) return true;
+                if (!locks.try_lock(v, me)) return false;
+                held.push_back(v);
+                return true;
+            }
+        };
+        return claim_with<Op>(spec, m, t, take);
     }
 
     static void release(Lock& locks, std::uint32_t me, held_vertices& held) {
@@ -555,7 +571,7 @@ private:
         for (unsigned w = 0; w < P; ++w) workers.push_back(std::make_unique<worker_state>());
 
         // Initial entries go to the part of their tuple's vertex.
-        const std::vector<std::uint32_t> part = Partition::assign(m, P);
+        std::vector<std::uint32_t> part = Partition::assign(m, P);
         std::uint64_t initial_count = 0;
         if constexpr (requires(detail::push_probe<tuple> & push) {
                           spec.initial_at(m, index_t{}, push);
@@ -626,6 +642,93 @@ private:
                 me.pushed_since_purge = 0;
             }
         };
+
+        // After a success: the live counts and the stopping criterion, if the spec has one.
+        auto count_success = [&](worker_state& me, std::int64_t fd, std::int64_t vd,
+                                 std::uint64_t& since_check) {
+            if constexpr (watches_progress) {
+                const std::int64_t delta = pack(me.ctx.face_delta - fd, me.ctx.vertex_delta - vd);
+                progress now = unpack(live.fetch_add(delta, std::memory_order_relaxed) + delta);
+                me.successes.store(me.report.succeeded,
+                                   std::memory_order_relaxed); // owner writes only
+                if (goal_reached(spec, now)) stop.store(true, std::memory_order_relaxed);
+                if (++since_check >= o.check_every) {
+                    since_check = 0;
+                    now.successes = global_progress().successes;
+                    if (should_stop(spec, now)) stop.store(true, std::memory_order_relaxed);
+                }
+            } else {
+                (void)me, (void)fd, (void)vd, (void)since_check;
+            }
+        };
+
+        // Owner phase (own_part_first): each worker drains its own part's queue without
+        // locks, running only operations whose whole claim lies in its part. No worker
+        // steals, so no two ever touch a cell with a vertex of another part; cells made
+        // here hold only their maker's vertices. The rest waits for the claiming phase.
+        double owner_seconds = 0;
+        if constexpr (owner_phase_lock<Lock>) {
+            const auto owner_start = std::chrono::steady_clock::now();
+            constexpr std::uint32_t unowned = ~std::uint32_t{0};
+            auto drain_own_part = [&](unsigned w) {
+                worker_state& me = *workers[w];
+                detail::worker_index = w;
+                auto mine = [&](index_t v) { return part[v] == w; };
+                std::uint64_t since_check = 0;
+                entry e;
+                while (!stop.load(std::memory_order_relaxed) && me.q.pop(e)) {
+                    ++me.report.popped;
+                    ops::dispatch(e.kind, [&](auto op) {
+                        using Op = decltype(op);
+                        const claim_result c = claim_with<Op>(spec, m, e.tuple, mine);
+                        if (c == claim_result::stale) {
+                            ++me.report.stale;
+                            return;
+                        }
+                        if (c == claim_result::busy ||
+                            !m.has_room(Op::adds_vertices, Op::adds_faces)) {
+                            ++me.report.crossed_parts;
+                            me.deferred.push_back(e);
+                            return;
+                        }
+                        if (!should_process<Op>(spec, m, e)) {
+                            ++me.report.skipped;
+                            return;
+                        }
+                        ++me.report.attempted;
+                        const std::int64_t fd = me.ctx.face_delta, vd = me.ctx.vertex_delta;
+                        auto r = apply(Op{}, m, e.tuple, spec, me.ctx);
+                        if (!r) {
+                            ++me.report.refused;
+                            refused<Op>(spec, m, e);
+                            return;
+                        }
+                        ++me.report.succeeded;
+                        if constexpr (Op::adds_vertices > 0)
+                            for (const auto& cell : r->cells)
+                                for (index_t v : detail::cell_vertices(m, detail::cell_of(m, cell)))
+                                    if (part[v] == unowned) part[v] = w;
+                        renew<Op>(spec, m, *r, [&](auto nop, const tuple& t) {
+                            using NOp = decltype(nop);
+                            me.q.push({priority_of<NOp>(spec, m, t), t, NOp::id, 0});
+                            ++me.report.pushed, ++me.pushed_since_purge;
+                        });
+                        count_success(me, fd, vd, since_check);
+                        purge_if_bloated(me);
+                    });
+                }
+                // What reached into other parts starts the claiming phase.
+                me.report.pushed += me.deferred.size();
+                for (const auto& d : me.deferred) me.q.push(d);
+                me.deferred.clear();
+            };
+            for (index_t v = 0; v < part.size(); ++v)
+                if (!m.vertex_alive(v)) part[v] = unowned; // future vertices: their maker's
+            detail::run_workers(T, P, drain_own_part);
+            owner_seconds =
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - owner_start)
+                    .count();
+        }
 
         auto drain = [&](unsigned w) {
             worker_state& me = *workers[w];
@@ -713,23 +816,7 @@ private:
                         me.report.pushed += renewed.size();
                         me.pushed_since_purge += renewed.size();
                     }
-                    if constexpr (watches_progress) {
-                        const std::int64_t dfaces = me.ctx.face_delta - fd,
-                                           dverts = me.ctx.vertex_delta - vd;
-                        const std::int64_t delta = pack(dfaces, dverts);
-                        progress now =
-                            unpack(live.fetch_add(delta, std::memory_order_relaxed) + delta);
-                        me.successes.store(me.report.succeeded,
-                                           std::memory_order_relaxed); // owner writes only
-                        if (goal_reached(spec, now)) stop.store(true, std::memory_order_relaxed);
-                        if (++since_check >= o.check_every) {
-                            since_check = 0;
-                            now.successes = global_progress().successes;
-                            if (should_stop(spec, now)) stop.store(true, std::memory_order_relaxed);
-                        }
-                    } else {
-                        (void)fd, (void)vd, (void)since_check;
-                    }
+                    count_success(me, fd, vd, since_check);
                     purge_if_bloated(me);
                 });
             }
@@ -748,6 +835,7 @@ private:
         run_report report;
         report.threads = T;
         report.pushed = initial_count;
+        report.owner_seconds = owner_seconds;
         for (auto& w : workers) {
             auto& r = w->report;
             report.pushed += r.pushed, report.popped += r.popped, report.purged += r.purged,
@@ -756,7 +844,7 @@ private:
                 report.refused += r.refused;
             report.lock_failures += r.lock_failures,
                 report.deferred_to_serial += r.deferred_to_serial;
-            report.stolen += r.stolen;
+            report.stolen += r.stolen, report.crossed_parts += r.crossed_parts;
         }
         if constexpr (ops::adds_simplices) m.end_parallel();
         m.set_slot_recycling(true);

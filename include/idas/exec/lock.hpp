@@ -74,9 +74,29 @@ private:
     std::size_t n_;
 };
 
+/// Owner computes first, then claims. In a first phase each worker runs only the
+/// operations whose every claimed vertex lies in its own part: a claim is a plain read of
+/// the part map, with no locked instruction and no shared cache line written (on a tet
+/// mesh a claim covers dozens of vertices). Vertices a worker creates join its part. The
+/// operations that reach into another part wait for a second phase, which claims like
+/// vertex_try_lock. Parts are spatially compact, so few operations wait.
+class own_part_first : public vertex_try_lock {
+public:
+    static constexpr bool owner_phase = true;
+    using vertex_try_lock::vertex_try_lock;
+};
+
 } // namespace lock
+
+/// A lock policy whose runs start with the lock-free owner phase (see own_part_first).
+template <class L>
+concept owner_phase_lock = lock_policy<L> && requires {
+    { L::owner_phase } -> std::convertible_to<bool>;
+} && L::owner_phase;
 
 static_assert(lock_policy<lock::none>);
 static_assert(lock_policy<lock::vertex_try_lock>);
+static_assert(lock_policy<lock::own_part_first> && owner_phase_lock<lock::own_part_first>);
+static_assert(!owner_phase_lock<lock::vertex_try_lock>);
 
 } // namespace idas
