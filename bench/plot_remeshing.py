@@ -94,12 +94,19 @@ def mark(ok):
     return "met" if ok else "**not met**"
 
 
+def farthest(r):
+    """Out->in distance of the farthest output sample (23 per face, exact distances to the
+    input), relative to the diagonal: deterministic, unlike CGAL's random-sample estimate."""
+    return r["envelope_check_max_over_eps"] * r["eps_relative"]
+
+
 def targets(best):
     out = ["**idas serial (no envelope) against CGAL** (targets: time ratio at most 1; "
            "valence-6 fraction and minimum angle at least CGAL's; Hausdorff at most CGAL's)", "",
            "| input | seconds idas / CGAL | ratio | | valence-6 idas / CGAL | | min angle idas / "
-           "CGAL | | Hausdorff out->in idas / CGAL | | Hausdorff sym. idas / CGAL | |",
-           "|---|---:|---:|---|---:|---|---:|---|---:|---|---:|---|"]
+           "CGAL | | farthest output point idas / CGAL | | Hausdorff sym. idas / CGAL | | "
+           "out->in CGAL estimate, idas / CGAL |",
+           "|---|---:|---:|---|---:|---|---:|---|---:|---|---:|---|---:|"]
     for inp in INPUTS:
         a, c = best.get((inp, "idas", 1, False)), best.get((inp, "cgal", 1, False))
         if not a or not c:
@@ -111,10 +118,11 @@ def targets(best):
                  mark(a["valence6"] >= c["valence6"]),
                  f"{a['min_angle_deg']:.1f} / {c['min_angle_deg']:.1f}",
                  mark(a["min_angle_deg"] >= c["min_angle_deg"]),
-                 f"{a['hausdorff_out_in']:.3g} / {c['hausdorff_out_in']:.3g}",
-                 mark(a["hausdorff_out_in"] <= c["hausdorff_out_in"]),
+                 f"{farthest(a):.3g} / {farthest(c):.3g}",
+                 mark(farthest(a) <= farthest(c)),
                  f"{a['hausdorff_symmetric']:.3g} / {c['hausdorff_symmetric']:.3g}",
-                 mark(a["hausdorff_symmetric"] <= c["hausdorff_symmetric"])]
+                 mark(a["hausdorff_symmetric"] <= c["hausdorff_symmetric"]),
+                 f"{a['hausdorff_out_in']:.3g} / {c['hausdorff_out_in']:.3g}"]
         out.append(f"| {inp} | " + " | ".join(cells) + " |")
     out += ["", "**idas 2-thread speedup over 1 thread** (target: at least 1.6 on armadillo x4)",
             "", "| input | envelope | 1T (s) | 2T (s) | speedup | |", "|---|---|---:|---:|---:|---|"]
@@ -206,7 +214,11 @@ def section(best, failures, before):
         "faces of each face's smallest angle, faces whose smallest angle is below 20 degrees, "
         "mean edge length / target. Hausdorff: CGAL `approximate_Hausdorff_distance` "
         "(as in the decimation benchmark) divided by the diagonal; out->in samples the "
-        "output, sym. is the larger of both directions.",
+        "output, sym. is the larger of both directions. The targets' out->in figure is the "
+        "farthest output point of the envelope check below (every face sampled, exact "
+        "distances, the same for both peers): CGAL's out->in estimate draws random samples "
+        "and moves by more than the peers differ (bunny: CGAL's own output 0.00123 to "
+        "0.00138 across builds); it is kept as the last column.",
         "- Outside eps: the independent envelope check, for every run: each output face "
         "sampled at 23 points (corners, edge midpoints, centroid, 16 stratified), distances "
         "to the input by `idas::triangle_aabb_tree`; faces with a sample farther than eps.",

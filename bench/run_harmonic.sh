@@ -90,7 +90,8 @@ for key in ["reduced-1", "reduced-2", "reduced-2-try", "complete-1", "complete-2
     if key not in best:
         continue
     t, r = best[key]
-    print(f"| idas {r['mode']} ({r.get('lock', 'try')}) | {r['threads']} | {r['delaunay_seconds']:.2f} | {t:.2f} | "
+    policy = r.get('lock', 'try') if r['threads'] > 1 else 'serial'
+    print(f"| idas {r['mode']} ({policy}) | {r['threads']} | {r['delaunay_seconds']:.2f} | {t:.2f} | "
           f"{r['tets_before']:,} | {r['tets_after']:,} | {r['mean_index_before']:.4f} | "
           f"{r['mean_index_after']:.4f} | {r['flips']:,} | {r['smoothed']:,} |")
 print()
