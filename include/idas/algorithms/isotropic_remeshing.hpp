@@ -305,7 +305,14 @@ struct remesh_swap_spec : detail::with_invariants<Extra...> {
         // Better valences are not worth a sliver: the flip may not halve the quad's
         // smallest angle (a concave or nearly degenerate quad fails this). With equal
         // valences, flip only to open up a thin pair of triangles.
-        if (then < now) return new_min >= 0.5 * old_min;
+        if (then < now) {
+            // Smoothing evens out a thinner pair later, except at frozen vertices, which
+            // never move: there the flip may not make the quad's smallest angle smaller
+            // (else a 9 degree triangle stayed on bunny's kept border).
+            const auto fr = m.attribute(s->frozen);
+            if (fr[a] || fr[b] || fr[c] || fr[d]) return new_min >= old_min;
+            return new_min >= 0.5 * old_min;
+        }
         return old_min < 0.35 && new_min > 1.5 * old_min; // 0.35 rad = 20 degrees
     }
     // Flips whose new triangles have the largest smallest angle run first. Right after the
