@@ -27,6 +27,19 @@ inline std::string tmp(const std::string& name) {
     return std::string(IDAS_TEST_TMP) + "/" + name;
 }
 
+/// What a valid edit keeps: Euler characteristic, boundary loops, components.
+struct topology {
+    long chi;
+    std::size_t loops, components;
+    bool operator==(const topology&) const = default;
+};
+template <class Mesh>
+topology topology_of(const Mesh& m) {
+    const auto [V, F] = m.to_arrays();
+    const auto r = diagnose_topology(V.size(), F);
+    return {r.euler_characteristic, r.boundary_loops, r.components};
+}
+
 template <class Mesh = tri_mesh<>>
 Mesh load(const std::string& name) {
     const auto s = io::read_surface(data(name));

@@ -12,16 +12,7 @@ using namespace idas::algorithms;
 
 namespace {
 
-struct topology {
-    long chi;
-    std::size_t loops, components;
-};
-template <class Mesh>
-topology topology_of(const Mesh& m) {
-    const auto [V, F] = m.to_arrays();
-    const auto r = diagnose_topology(V.size(), F);
-    return {r.euler_characteristic, r.boundary_loops, r.components};
-}
+using idas::test::topology_of;
 
 template <class Algorithm, class Mesh, class Spec>
 run_report decimate(Mesh& m, Spec spec, double ratio, unsigned threads, unsigned parts = 1) {

@@ -9,7 +9,11 @@
 using namespace idas;
 using namespace idas::algorithms;
 
-TEST_CASE("harmonic triangulation in parallel: 8 threads, both modes, vertex_try_lock") {
+TYPE_TO_STRING_AS("vertex_try_lock", lock::vertex_try_lock);
+TYPE_TO_STRING_AS("own_part_first", lock::own_part_first);
+
+TEST_CASE_TEMPLATE("harmonic triangulation in parallel: 8 threads, both modes", Lock,
+                   lock::vertex_try_lock, lock::own_part_first) {
     const auto points = io::gaussian_points(10000, 11);
     for (const auto mode : {harmonic_mode::reduced, harmonic_mode::complete}) {
         CAPTURE(int(mode));
@@ -18,8 +22,8 @@ TEST_CASE("harmonic triangulation in parallel: 8 threads, both modes, vertex_try
         o.mode = mode;
         o.exec.threads = 8;
         o.exec.max_retry = 2; // more entries take the final serial pass too
-        // The claiming policy throughout (the default, own_part_first, has its own test).
-        test::check_run<harmonic_triangulation<tet_mesh<>, lock::vertex_try_lock>>(m, o);
+        const auto rep = test::check_run<harmonic_triangulation<tet_mesh<>, Lock>>(m, o);
+        if constexpr (owner_phase_lock<Lock>) CHECK(rep.crossed_parts > 0);
         // Within reach of the serial result (the order of flips differs).
         auto s = test::delaunay_mesh(points);
         o.exec.threads = 1;

@@ -1,8 +1,9 @@
 // The own_part_first lock policy: a lock-free owner phase (each worker edits only inside
 // its own part), then the claiming phase for what crossed parts. More workers than cores,
 // on triangle meshes (collapses; splits, whose new vertices join their maker's part) and
-// on tet meshes (harmonic flips and smoothing). Test names start with "parallel" so the
-// TSan preset runs them.
+// on tet meshes (harmonic smoothing; the whole harmonic run is in
+// test_harmonic_parallel.cpp, over both lock policies). Test names start with "parallel"
+// so the TSan preset runs them.
 #include "../test_support.hpp"
 
 #include <idas/algorithms/isotropic_remeshing.hpp>
@@ -19,21 +20,7 @@
 using namespace idas;
 using namespace idas::algorithms;
 
-namespace {
-
-struct topology {
-    long chi;
-    std::size_t loops, components;
-    bool operator==(const topology&) const = default;
-};
-template <class Mesh>
-topology topology_of(const Mesh& m) {
-    const auto [V, F] = m.to_arrays();
-    const auto r = diagnose_topology(V.size(), F);
-    return {r.euler_characteristic, r.boundary_loops, r.components};
-}
-
-} // namespace
+using idas::test::topology_of;
 
 TEST_CASE_TEMPLATE("parallel own_part_first: no operation lost", Mesh, IDAS_TRI_MESHES) {
     // Every entry is popped once (or purged), and ends stale, skipped, attempted, retried
@@ -90,26 +77,6 @@ TEST_CASE_TEMPLATE("parallel own_part_first: remeshing, whose splits make new ve
 }
 
 #if defined(IDAS_HAS_CGAL)
-TEST_CASE("parallel own_part_first: harmonic triangulation on 8 threads, both modes") {
-    const auto points = io::gaussian_points(10000, 11);
-    for (const auto mode : {harmonic_mode::reduced, harmonic_mode::complete}) {
-        CAPTURE(int(mode));
-        auto m = test::delaunay_mesh(points);
-        harmonic_options o;
-        o.mode = mode;
-        o.exec.threads = 8;
-        const auto rep =
-            test::check_run<harmonic_triangulation<tet_mesh<>, lock::own_part_first>>(m, o);
-        CHECK(rep.crossed_parts > 0);
-        // Within reach of the serial result (the order of flips differs).
-        auto s = test::delaunay_mesh(points);
-        o.exec.threads = 1;
-        harmonic_triangulation<>::run(s, o);
-        CHECK(harmonic_statistics(m).mean_index ==
-              doctest::Approx(harmonic_statistics(s).mean_index).epsilon(0.02));
-    }
-}
-
 TEST_CASE("parallel own_part_first: a smoothing pass tries every vertex once") {
     // Entries that cross parts are carried over to the claiming phase, not dropped.
     auto m = test::delaunay_mesh(io::gaussian_points(4000, 3));

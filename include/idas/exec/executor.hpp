@@ -359,6 +359,22 @@ public:
         if constexpr (requires { spec.refused(Op{}, m, e.tuple); }) spec.refused(Op{}, m, e.tuple);
     }
 
+    /// Runs the operation and counts it as attempted and then succeeded or refused (the
+    /// spec hears of a refusal while the region is still held); the result if it succeeded.
+    template <class Op>
+    static auto attempt(Spec& spec, Mesh& m, const entry& e, op_context<Mesh>& ctx,
+                        run_report& report) {
+        ++report.attempted;
+        auto r = apply(Op{}, m, e.tuple, spec, ctx);
+        if (r) {
+            ++report.succeeded;
+        } else {
+            ++report.refused;
+            refused<Op>(spec, m, e);
+        }
+        return r;
+    }
+
     static progress counts(const Mesh& m) {
         return {static_cast<std::int64_t>(detail::live_cells(m)),
                 static_cast<std::int64_t>(m.n_vertices()), 0};
@@ -421,15 +437,10 @@ private:
                     ++report.skipped;
                     return;
                 }
-                ++report.attempted;
                 const auto fd = ctx.face_delta, vd = ctx.vertex_delta;
-                auto r = apply(Op{}, m, e.tuple, spec, ctx);
-                if (!r) {
-                    ++report.refused;
-                    refused<Op>(spec, m, e);
-                    return;
-                }
-                ++report.succeeded, ++p.successes;
+                auto r = attempt<Op>(spec, m, e, ctx, report);
+                if (!r) return;
+                ++p.successes;
                 p.faces += ctx.face_delta - fd, p.vertices += ctx.vertex_delta - vd;
                 renew<Op>(spec, m, *r, [&](auto nop, const tuple& t) {
                     using NOp = decltype(nop);
@@ -695,15 +706,9 @@ private:
                             ++me.report.skipped;
                             return;
                         }
-                        ++me.report.attempted;
                         const std::int64_t fd = me.ctx.face_delta, vd = me.ctx.vertex_delta;
-                        auto r = apply(Op{}, m, e.tuple, spec, me.ctx);
-                        if (!r) {
-                            ++me.report.refused;
-                            refused<Op>(spec, m, e);
-                            return;
-                        }
-                        ++me.report.succeeded;
+                        auto r = attempt<Op>(spec, m, e, me.ctx, me.report);
+                        if (!r) return;
                         if constexpr (Op::adds_vertices > 0)
                             for (const auto& cell : r->cells)
                                 for (index_t v : detail::cell_vertices(m, detail::cell_of(m, cell)))
@@ -794,16 +799,12 @@ private:
                         final_pass.push_back(e);
                         return;
                     }
-                    ++me.report.attempted;
                     const std::int64_t fd = me.ctx.face_delta, vd = me.ctx.vertex_delta;
-                    auto r = apply(Op{}, m, e.tuple, spec, me.ctx);
+                    auto r = attempt<Op>(spec, m, e, me.ctx, me.report); // holding the region
                     if (!r) {
-                        ++me.report.refused;
-                        refused<Op>(spec, m, e); // still holding the region
                         release(locks, owner, held);
                         return;
                     }
-                    ++me.report.succeeded;
                     renewed.clear();
                     renew<Op>(spec, m, *r, [&](auto nop, const tuple& t) {
                         using NOp = decltype(nop);
