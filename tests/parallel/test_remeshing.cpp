@@ -188,6 +188,44 @@ TEST_CASE_TEMPLATE("a remeshing collapse keeps whichever end stays within 4/3 L"
     CHECK(seen == 2);
 }
 
+TEST_CASE_TEMPLATE("a remeshing collapse does not move the surface by more than L/5", Mesh,
+                   IDAS_TRI_MESHES) {
+    // The fan of the test above with a lifted to a peak: collapsing a into b flattens the
+    // surface where a was by its height (a crease on a real mesh, such as bunny's bottom
+    // rim, is cut the same way).
+    for (const double height : {0.15, 0.3}) {
+        CAPTURE(height);
+        const std::vector<vec3> p{{0, 0, height}, {0.5, 0, 0},  {1.4, 0, 0},  {0.5, 0.6, 0},
+                                  {0, 0.6, 0},    {-0.6, 0, 0}, {0, -0.6, 0}, {0.5, -0.6, 0}};
+        const index_t a = 0, b = 1;
+        Mesh m(p, {{a, b, 3},
+                   {b, 2, 3},
+                   {a, 3, 4},
+                   {a, 4, 5},
+                   {a, 5, 6},
+                   {a, 6, 7},
+                   {a, 7, b},
+                   {b, 7, 2}});
+        remeshing_state s;
+        s.L = 1;
+        s.frozen = m.template add_vertex_attribute<std::uint8_t>("frozen", 0);
+        s.feature = m.template add_vertex_attribute<std::uint8_t>("feature", 0);
+        s.boundary = m.template add_vertex_attribute<std::uint8_t>("boundary", 0);
+        const remesh_collapse_spec<> collapse{{}, &s};
+        int seen = 0;
+        m.for_each_edge([&](const tri_tuple& e) {
+            const auto [x, y] = m.edge_vertices(e);
+            if (std::min(x, y) != a || std::max(x, y) != b) return;
+            for (const tri_tuple& t : {e, m.switch_vertex(e)}) {
+                const auto kept = collapse.before(op::collapse_edge{}, m, t);
+                CHECK(kept.has_value() == (height < 0.2)); // a at 1.4 from q0: only b may stay
+                ++seen;
+            }
+        });
+        CHECK(seen == 2);
+    }
+}
+
 TEST_CASE_TEMPLATE("parallel remeshing: bunny and blub on 2 and 8 threads", Mesh, IDAS_TRI_MESHES) {
     check_remesh<Mesh>("bunny.obj", 0.01, 2);
     check_remesh<Mesh>("blub.obj", 0.01, 8);
