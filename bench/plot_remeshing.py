@@ -170,13 +170,11 @@ def all_runs(best):
     return out
 
 
-def before_after(before, after):
-    out = ["### Before and after the quality fix", "",
-           "idas serial without envelope; \"before\" is the spec before the fix (smoothing "
-           "and flipping entries went stale when a neighbour changed, so about half the "
-           "vertices were never smoothed and flips were never revisited; collapses merged at "
-           "the midpoint): bench_remeshing built with isotropic_remeshing.hpp of commit "
-           "cfe2e21, passed as --before-bin and run interleaved with \"after\".", "",
+def before_after(before, after, note):
+    out = ["### Before and after", "",
+           "idas serial without envelope; \"before\" is " + (note or "an older revision") +
+           ": a bench_remeshing built from it, passed as --before-bin and run interleaved "
+           "with \"after\".", "",
            "| input | build | seconds | output faces | valence-6 | min angle | mean min angle | "
            "faces < 20° | Hausdorff out->in | Hausdorff sym. |",
            "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
@@ -192,7 +190,7 @@ def before_after(before, after):
     return out
 
 
-def section(best, failures, before):
+def section(best, failures, before, before_note):
     env = os.environ.get
     any_run = next(iter(best.values()), {})
     lines = [
@@ -238,7 +236,7 @@ def section(best, failures, before):
         lines += ["", "Failed runs: " + "; ".join(
             f"{f['peer']} {f['input']} {f.get('args', '')}: {f['error']}" for f in failures)]
     if before:
-        lines += [""] + before_after(before, best)
+        lines += [""] + before_after(before, best, before_note)
     return "\n".join(lines) + "\n"
 
 
@@ -248,6 +246,7 @@ def main():
     p.add_argument("--png", required=True)
     p.add_argument("--markdown", required=True)
     p.add_argument("--before")
+    p.add_argument("--before-note", help="what the --before build is")
     a = p.parse_args()
     best, failures = load(a.results)
     before = None
@@ -255,7 +254,7 @@ def main():
         before = load(a.before)[0]
     plot(best, a.png)
     text = open(a.markdown).read() if os.path.exists(a.markdown) else "# Results\n"
-    new = section(best, failures, before)
+    new = section(best, failures, before, a.before_note)
     # Replace our section (up to the next level-2 heading) or append it.
     pattern = re.compile(r"^## Remeshing\n.*?(?=^## |\Z)", re.S | re.M)
     if pattern.search(text):

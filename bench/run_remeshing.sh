@@ -4,6 +4,7 @@
 #
 #   bench/run_remeshing.sh [--repeats N] [--samples S] [--length L] [--iterations K]
 #                          [--envelope EPS] [--build-dir DIR] [--before-bin FILE]
+#                          [--before-note TEXT]
 #
 # Builds bench_remeshing (CMake preset "bench", or the given build directory), then runs
 # every case as its own process:
@@ -21,7 +22,7 @@
 #
 # --before-bin FILE: a bench_remeshing built from an older revision; its idas serial runs
 # (no envelope) go, interleaved with the others, to bench/remeshing_before.jsonl and into
-# a before/after table.
+# a before/after table; --before-note TEXT says what that revision is (printed above it).
 set -euo pipefail
 
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -33,6 +34,7 @@ iterations=5
 envelope=1e-3
 build_dir=""
 before_bin=""
+before_note=""
 while [[ $# -gt 0 ]]; do
     case "$1" in
     --repeats) repeats="$2"; shift 2 ;;
@@ -42,9 +44,10 @@ while [[ $# -gt 0 ]]; do
     --envelope) envelope="$2"; shift 2 ;;
     --build-dir) build_dir="$2"; shift 2 ;;
     --before-bin) before_bin="$2"; shift 2 ;;
+    --before-note) before_note="$2"; shift 2 ;;
     *)
         echo "usage: bench/run_remeshing.sh [--repeats N] [--samples S] [--length L]" \
-            "[--iterations K] [--envelope EPS] [--build-dir DIR] [--before-bin FILE]" >&2
+            "[--iterations K] [--envelope EPS] [--build-dir DIR] [--before-bin FILE] [--before-note TEXT]" >&2
         exit 2
         ;;
     esac
@@ -115,4 +118,5 @@ export PEERS="CGAL $(awk '$2 == "CGAL_VERSION" {print $3}' /usr/include/CGAL/ver
 python=/usr/bin/python3
 [[ -x "$python" ]] || python=python3
 "$python" "$root/bench/plot_remeshing.py" --results "$results" --png "$root/bench/remeshing.png" \
-    --markdown "$root/bench/RESULTS.md" ${before_bin:+--before "$before_results"}
+    --markdown "$root/bench/RESULTS.md" ${before_bin:+--before "$before_results"} \
+    ${before_note:+--before-note "$before_note"}
