@@ -68,18 +68,13 @@ public:
     /// One reversible change, undone newest-first.
     struct undo_entry {
         enum class what : std::uint8_t {
-            tet_saved,  // a: tet; verts, opp, version: its record before the change
-            link_set,   // a: face reference, b: its old link
-            anchor_set, // a: vertex, b: its old anchor tet
-            tet_added,  // a: tet slot appended
-            vertex_added,
-            vertex_removed,
-            vertex_dropped,
-            vertex_reused,
-            free_tet_pushed,
-            free_tet_popped,
-            vertex_from_pool,
-            tet_from_pool
+            tet_saved,       // a: tet; verts, opp, version: its record before the change
+            link_set,        // a: face reference, b: its old link
+            anchor_set,      // a: vertex, b: its old anchor tet
+            tet_acquired,    // a: tet slot, b: its detail::slot_source
+            tet_released,    // a: tet slot, put on the free list
+            vertex_acquired, // a: vertex slot, b: its detail::slot_source
+            vertex_released  // a: vertex slot, b: 1 if it went on the free list
         };
         what kind;
         index_t a = 0, b = 0;
@@ -154,7 +149,7 @@ public:
         for (index_t t = 0; t < n_tets; ++t) tets_[t] = {tets[t], dead_links(), 0};
         anchor_.assign(n_vertices, invalid_index);
         valive_.assign(n_vertices, 1);
-        free_tets_.clear(), free_vertices_.clear();
+        vertex_alloc_.clear(), tet_alloc_.clear();
         // Faces by sorted vertices; a face's two tets end up next to each other.
         struct face {
             tri_indices key;
@@ -258,88 +253,58 @@ public:
 
     std::size_t memory_bytes() const noexcept {
         return tets_.capacity() * sizeof(tet_record) + anchor_.capacity() * sizeof(index_t) +
-               valive_.capacity() +
-               (free_tets_.capacity() + free_vertices_.capacity()) * sizeof(index_t);
+               valive_.capacity() + tet_alloc_.memory_bytes() + vertex_alloc_.memory_bytes();
     }
 
     /// As indexed_tet: while parallel workers share the backend, removed slots are not
     /// recycled (the free lists would be shared state).
-    void set_slot_recycling(bool on) noexcept { recycle_ = on; }
+    void set_slot_recycling(bool on) noexcept {
+        vertex_alloc_.set_recycling(on), tet_alloc_.set_recycling(on);
+    }
 
     /// As indexed_tet: the arrays grow once, here, by the given numbers of dead slots,
     /// dealt out to per-worker pools (detail::worker_index picks the pool).
     void begin_parallel(unsigned workers, index_t extra_vertices, index_t extra_tets) {
-        recycle_ = false;
-        const index_t nv =
-            vertex_pool_.deal(workers, free_vertices_, vertex_slots(), extra_vertices);
-        const index_t nt = tet_pool_.deal(workers, free_tets_, tet_slots(), extra_tets);
+        const index_t nv = vertex_alloc_.begin_parallel(workers, vertex_slots(), extra_vertices);
+        const index_t nt = tet_alloc_.begin_parallel(workers, tet_slots(), extra_tets);
         anchor_.resize(nv, invalid_index);
         valive_.resize(nv, 0);
         tets_.resize(nt, dead_tet());
-        parallel_ = true;
     }
     /// Unused pool slots become ordinary recyclable dead slots again.
-    void end_parallel() {
-        parallel_ = false;
-        recycle_ = true;
-        vertex_pool_.release(free_vertices_);
-        tet_pool_.release(free_tets_);
-    }
+    void end_parallel() { vertex_alloc_.end_parallel(), tet_alloc_.end_parallel(); }
     bool has_room(index_t vertices, index_t tets) const noexcept {
-        if (!parallel_) return true;
-        return vertex_pool_.available(detail::worker_index) >= vertices &&
-               tet_pool_.available(detail::worker_index) >= tets;
+        return vertex_alloc_.has_room(vertices) && tet_alloc_.has_room(tets);
     }
 
     // ---- journaled mutation ----
 
     // Slots are reused as in indexed_tet; a reused tet slot keeps counting versions.
     index_t add_vertex(undo_log& log) {
-        if (parallel_) {
-            const index_t v = vertex_pool_.take(detail::worker_index);
+        const auto [v, source] = vertex_alloc_.acquire(vertex_slots());
+        if (source == detail::slot_source::appended)
+            anchor_.push_back(invalid_index), valive_.push_back(1);
+        else
             valive_[v] = 1;
-            log.push(undo_entry::what::vertex_from_pool, v);
-            return v;
-        }
-        if (recycle_ && !free_vertices_.empty()) {
-            const index_t v = free_vertices_.back();
-            free_vertices_.pop_back();
-            valive_[v] = 1;
-            log.push(undo_entry::what::vertex_reused, v);
-            return v;
-        }
-        anchor_.push_back(invalid_index);
-        valive_.push_back(1);
-        const index_t v = vertex_slots() - 1;
-        log.push(undo_entry::what::vertex_added, v);
+        log.push(undo_entry::what::vertex_acquired, v, index_t(source));
         return v;
     }
     void remove_vertex(index_t v, undo_log& log) {
         assert(anchor_[v] == invalid_index);
         valive_[v] = 0;
-        if (recycle_) free_vertices_.push_back(v);
-        log.push(recycle_ ? undo_entry::what::vertex_removed : undo_entry::what::vertex_dropped, v);
+        log.push(undo_entry::what::vertex_released, v, index_t(vertex_alloc_.release(v)));
     }
 
     index_t add_tet(const tet_indices& t, undo_log& log) {
-        index_t id;
-        if (parallel_ || (recycle_ && !free_tets_.empty())) {
-            if (parallel_) {
-                id = tet_pool_.take(detail::worker_index);
-                log.push(undo_entry::what::tet_from_pool, id);
-            } else {
-                id = free_tets_.back();
-                free_tets_.pop_back();
-                log.push(undo_entry::what::free_tet_popped, id);
-            }
+        const auto [id, source] = tet_alloc_.acquire(tet_slots());
+        log.push(undo_entry::what::tet_acquired, id, index_t(source));
+        if (source == detail::slot_source::appended) {
+            tets_.push_back({t, dead_links(), 0});
+        } else {
             save_tet(id, log);
             tet_record& r = tets_[id];
             r.v = t, r.opp = dead_links();
             bump_version(r);
-        } else {
-            tets_.push_back({t, dead_links(), 0});
-            id = tet_slots() - 1;
-            log.push(undo_entry::what::tet_added, id);
         }
         for (index_t v : t)
             if (anchor_[v] == invalid_index) set_anchor(v, id, log);
@@ -354,10 +319,7 @@ public:
         bump_version(tets_[t]);
         for (index_t i = 0; i < 4; ++i)
             if (old.opp[i] != invalid_index) set_link(old.opp[i], invalid_index, log);
-        if (recycle_) {
-            free_tets_.push_back(t);
-            log.push(undo_entry::what::free_tet_pushed, t);
-        }
+        if (tet_alloc_.release(t)) log.push(undo_entry::what::tet_released, t);
         for (index_t v : old.v)
             if (anchor_[v] == t) relocate_anchor(v, old, log);
         for (index_t i = 0; i < 4; ++i)
@@ -452,37 +414,22 @@ public:
             case w::anchor_set:
                 anchor_[e.a] = e.b;
                 break;
-            case w::tet_added:
-                assert(e.a + 1 == tets_.size());
-                tets_.pop_back();
+            case w::tet_acquired:
+                if (tet_alloc_.undo_acquire(e.a, detail::slot_source(e.b), tet_slots()))
+                    tets_.pop_back();
                 break;
-            case w::vertex_added:
-                assert(e.a + 1 == anchor_.size());
-                anchor_.pop_back(), valive_.pop_back();
+            case w::tet_released:
+                tet_alloc_.undo_release(e.a);
                 break;
-            case w::vertex_removed:
+            case w::vertex_acquired:
+                if (vertex_alloc_.undo_acquire(e.a, detail::slot_source(e.b), vertex_slots()))
+                    anchor_.pop_back(), valive_.pop_back();
+                else
+                    valive_[e.a] = 0;
+                break;
+            case w::vertex_released:
                 valive_[e.a] = 1;
-                free_vertices_.pop_back();
-                break;
-            case w::vertex_dropped:
-                valive_[e.a] = 1;
-                break;
-            case w::vertex_reused:
-                valive_[e.a] = 0;
-                free_vertices_.push_back(e.a);
-                break;
-            case w::free_tet_pushed:
-                free_tets_.pop_back();
-                break;
-            case w::free_tet_popped:
-                free_tets_.push_back(e.a);
-                break;
-            case w::vertex_from_pool:
-                valive_[e.a] = 0;
-                vertex_pool_.give_back(detail::worker_index, e.a);
-                break;
-            case w::tet_from_pool:
-                tet_pool_.give_back(detail::worker_index, e.a);
+                if (e.b) vertex_alloc_.undo_release(e.a);
                 break;
             }
         }
@@ -491,7 +438,7 @@ public:
 
     friend bool operator==(const adjacency_tet& x, const adjacency_tet& y) {
         return x.tets_ == y.tets_ && x.anchor_ == y.anchor_ && x.valive_ == y.valive_ &&
-               x.free_tets_ == y.free_tets_ && x.free_vertices_ == y.free_vertices_;
+               x.tet_alloc_ == y.tet_alloc_ && x.vertex_alloc_ == y.vertex_alloc_;
     }
 
 private:
@@ -640,7 +587,10 @@ private:
         using w = undo_entry::what;
         for (auto e = log.entries_.rbegin(); e != log.entries_.rend(); ++e) {
             index_t g;
-            if (e->kind == w::tet_saved || e->kind == w::tet_added)
+            // (A reused or pooled slot has its tet_saved entry too.)
+            if (e->kind == w::tet_saved ||
+                (e->kind == w::tet_acquired &&
+                 detail::slot_source(e->b) == detail::slot_source::appended))
                 g = e->a;
             else if (e->kind == w::link_set)
                 g = tet_of(e->a);
@@ -654,11 +604,7 @@ private:
     std::vector<tet_record> tets_;
     std::vector<index_t> anchor_; // one tet per vertex, invalid_index without tets
     std::vector<std::uint8_t> valive_;
-    std::vector<index_t> free_tets_, free_vertices_;
-    bool recycle_ = true;
-    detail::slot_pool vertex_pool_,
-        tet_pool_; // per parallel worker, between begin_ and end_parallel
-    bool parallel_ = false;
+    detail::slot_allocator vertex_alloc_, tet_alloc_;
 };
 
 static_assert(tet_connectivity<adjacency_tet>);

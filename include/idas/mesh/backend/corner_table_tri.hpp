@@ -100,18 +100,13 @@ public:
     /// One reversible change, undone newest-first.
     struct undo_entry {
         enum class what : std::uint8_t {
-            face_saved,   // a: face; verts, opp, version: its record before the change
-            opp_set,      // a: corner, b: its old opposite corner
-            anchor_set,   // a: vertex, b: its old anchor corner
-            face_added,   // a: face slot appended
-            vertex_added, // a: vertex slot appended
-            vertex_removed,
-            vertex_dropped,
-            vertex_reused,
-            free_face_pushed,
-            free_face_popped,
-            vertex_from_pool, // a: vertex slot taken from this worker's pool
-            face_from_pool    // a: face slot taken from this worker's pool
+            face_saved,      // a: face; verts, opp, version: its record before the change
+            opp_set,         // a: corner, b: its old opposite corner
+            anchor_set,      // a: vertex, b: its old anchor corner
+            face_acquired,   // a: face slot, b: its detail::slot_source
+            face_released,   // a: face slot, put on the free list
+            vertex_acquired, // a: vertex slot, b: its detail::slot_source
+            vertex_released  // a: vertex slot, b: 1 if it went on the free list
         };
         what kind;
         index_t a = 0, b = 0;
@@ -255,7 +250,7 @@ public:
             faces_[f] = {faces[f], 0, {invalid_index, invalid_index, invalid_index}, 0};
         anchor_.assign(n_vertices, invalid_index);
         valive_.assign(n_vertices, 1);
-        free_faces_.clear(), free_vertices_.clear();
+        vertex_alloc_.clear(), face_alloc_.clear();
         // The corners of each vertex (CSR, in face order); each half-edge x->y finds its
         // twin y->x among the corners of x.
         std::vector<index_t> start(std::size_t(n_vertices) + 1, 0),
@@ -365,34 +360,26 @@ public:
 
     /// As indexed_tri: while parallel workers share the backend, removed slots are not
     /// recycled (the free lists would be shared state).
-    void set_slot_recycling(bool on) noexcept { recycle_ = on; }
+    void set_slot_recycling(bool on) noexcept {
+        vertex_alloc_.set_recycling(on), face_alloc_.set_recycling(on);
+    }
 
     /// As indexed_tri: prepares for `workers` concurrent workers that may add simplices.
     /// The arrays grow once, here, by that many dead slots, dealt out to per-worker pools
     /// (detail::worker_index picks the pool): no reallocation, no atomics. Recycling is
     /// off until end_parallel.
     void begin_parallel(unsigned workers, index_t extra_vertices, index_t extra_faces) {
-        recycle_ = false;
-        const index_t nv =
-            vertex_pool_.deal(workers, free_vertices_, vertex_slots(), extra_vertices);
-        const index_t nf = face_pool_.deal(workers, free_faces_, face_slots(), extra_faces);
+        const index_t nv = vertex_alloc_.begin_parallel(workers, vertex_slots(), extra_vertices);
+        const index_t nf = face_alloc_.begin_parallel(workers, face_slots(), extra_faces);
         anchor_.resize(nv, invalid_index);
         valive_.resize(nv, 0);
         faces_.resize(nf, dead_face());
-        parallel_ = true;
     }
     /// Unused pool slots become ordinary recyclable dead slots again.
-    void end_parallel() {
-        parallel_ = false;
-        recycle_ = true;
-        vertex_pool_.release(free_vertices_);
-        face_pool_.release(free_faces_);
-    }
+    void end_parallel() { vertex_alloc_.end_parallel(), face_alloc_.end_parallel(); }
     /// Whether this worker's pool can serve an operation adding these many simplices.
     bool has_room(index_t vertices, index_t faces) const noexcept {
-        if (!parallel_) return true;
-        return vertex_pool_.available(detail::worker_index) >= vertices &&
-               face_pool_.available(detail::worker_index) >= faces;
+        return vertex_alloc_.has_room(vertices) && face_alloc_.has_room(faces);
     }
 
     // ---- journaled mutation ----
@@ -401,52 +388,31 @@ public:
     // else dead slots newest first (when recycling is on), else appended. A reused face
     // slot keeps counting versions, so old tuples to it stay stale.
     index_t add_vertex(undo_log& log) {
-        if (parallel_) {
-            const index_t v = vertex_pool_.take(detail::worker_index);
+        const auto [v, source] = vertex_alloc_.acquire(vertex_slots());
+        if (source == detail::slot_source::appended)
+            anchor_.push_back(invalid_index), valive_.push_back(1);
+        else
             valive_[v] = 1;
-            log.push(undo_entry::what::vertex_from_pool, v);
-            return v;
-        }
-        if (recycle_ && !free_vertices_.empty()) {
-            const index_t v = free_vertices_.back();
-            free_vertices_.pop_back();
-            valive_[v] = 1;
-            log.push(undo_entry::what::vertex_reused, v);
-            return v;
-        }
-        anchor_.push_back(invalid_index);
-        valive_.push_back(1);
-        const index_t v = vertex_slots() - 1;
-        log.push(undo_entry::what::vertex_added, v);
+        log.push(undo_entry::what::vertex_acquired, v, index_t(source));
         return v;
     }
     void remove_vertex(index_t v, undo_log& log) {
         assert(anchor_[v] == invalid_index);
         valive_[v] = 0;
-        if (recycle_) free_vertices_.push_back(v);
-        log.push(recycle_ ? undo_entry::what::vertex_removed : undo_entry::what::vertex_dropped, v);
+        log.push(undo_entry::what::vertex_released, v, index_t(vertex_alloc_.release(v)));
     }
 
     index_t add_face(const tri_indices& f, undo_log& log) {
-        index_t id;
-        if (parallel_ || (recycle_ && !free_faces_.empty())) {
-            if (parallel_) {
-                id = face_pool_.take(detail::worker_index);
-                log.push(undo_entry::what::face_from_pool, id);
-            } else {
-                id = free_faces_.back();
-                free_faces_.pop_back();
-                log.push(undo_entry::what::free_face_popped, id);
-            }
+        const auto [id, source] = face_alloc_.acquire(face_slots());
+        log.push(undo_entry::what::face_acquired, id, index_t(source));
+        if (source == detail::slot_source::appended) {
+            faces_.push_back({f, 0, {invalid_index, invalid_index, invalid_index}, 0});
+        } else {
             save_face(id, log);
             face_record& r = faces_[id];
             r.v = f;
             r.opp = {invalid_index, invalid_index, invalid_index};
             bump_version(r);
-        } else {
-            faces_.push_back({f, 0, {invalid_index, invalid_index, invalid_index}, 0});
-            id = face_slots() - 1;
-            log.push(undo_entry::what::face_added, id);
         }
         for (index_t j = 0; j < 3; ++j)
             if (anchor_[f[j]] == invalid_index) set_anchor(f[j], corner(id, j), log);
@@ -462,10 +428,7 @@ public:
         bump_version(faces_[f]);
         for (index_t i = 0; i < 3; ++i)
             if (const index_t t = old.opp[i]; t != invalid_index) detach_twin(t, log);
-        if (recycle_) {
-            free_faces_.push_back(f);
-            log.push(undo_entry::what::free_face_pushed, f);
-        }
+        if (face_alloc_.release(f)) log.push(undo_entry::what::face_released, f);
         for (index_t i = 0; i < 3; ++i)
             if (const index_t a = anchor_[old.v[i]]; a != invalid_index && face_of(a) == f)
                 relocate_anchor(old.v[i], old, i, log);
@@ -539,37 +502,22 @@ public:
             case w::anchor_set:
                 anchor_[e.a] = e.b;
                 break;
-            case w::face_added:
-                assert(e.a + 1 == faces_.size());
-                faces_.pop_back();
+            case w::face_acquired:
+                if (face_alloc_.undo_acquire(e.a, detail::slot_source(e.b), face_slots()))
+                    faces_.pop_back();
                 break;
-            case w::vertex_added:
-                assert(e.a + 1 == anchor_.size());
-                anchor_.pop_back(), valive_.pop_back();
+            case w::face_released:
+                face_alloc_.undo_release(e.a);
                 break;
-            case w::vertex_removed:
+            case w::vertex_acquired:
+                if (vertex_alloc_.undo_acquire(e.a, detail::slot_source(e.b), vertex_slots()))
+                    anchor_.pop_back(), valive_.pop_back();
+                else
+                    valive_[e.a] = 0;
+                break;
+            case w::vertex_released:
                 valive_[e.a] = 1;
-                free_vertices_.pop_back();
-                break;
-            case w::vertex_dropped:
-                valive_[e.a] = 1;
-                break;
-            case w::vertex_reused:
-                valive_[e.a] = 0;
-                free_vertices_.push_back(e.a);
-                break;
-            case w::free_face_pushed:
-                free_faces_.pop_back();
-                break;
-            case w::free_face_popped:
-                free_faces_.push_back(e.a);
-                break;
-            case w::vertex_from_pool:
-                valive_[e.a] = 0;
-                vertex_pool_.give_back(detail::worker_index, e.a);
-                break;
-            case w::face_from_pool:
-                face_pool_.give_back(detail::worker_index, e.a);
+                if (e.b) vertex_alloc_.undo_release(e.a);
                 break;
             }
         }
@@ -578,7 +526,7 @@ public:
 
     friend bool operator==(const corner_table_tri& x, const corner_table_tri& y) {
         return x.faces_ == y.faces_ && x.anchor_ == y.anchor_ && x.valive_ == y.valive_ &&
-               x.free_faces_ == y.free_faces_ && x.free_vertices_ == y.free_vertices_;
+               x.face_alloc_ == y.face_alloc_ && x.vertex_alloc_ == y.vertex_alloc_;
     }
 
 private:
@@ -718,7 +666,10 @@ private:
         using w = undo_entry::what;
         for (auto e = log.entries_.rbegin(); e != log.entries_.rend(); ++e) {
             index_t g;
-            if (e->kind == w::face_saved || e->kind == w::face_added)
+            // (A reused or pooled slot has its face_saved entry too.)
+            if (e->kind == w::face_saved ||
+                (e->kind == w::face_acquired &&
+                 detail::slot_source(e->b) == detail::slot_source::appended))
                 g = e->a;
             else if (e->kind == w::opp_set)
                 g = face_of(e->a);
@@ -732,11 +683,7 @@ private:
     std::vector<face_record> faces_;
     std::vector<index_t> anchor_; // one corner per vertex, invalid_index without faces
     std::vector<std::uint8_t> valive_;
-    std::vector<index_t> free_faces_, free_vertices_;
-    bool recycle_ = true;
-    detail::slot_pool vertex_pool_,
-        face_pool_; // per parallel worker, between begin_ and end_parallel
-    bool parallel_ = false;
+    detail::slot_allocator vertex_alloc_, face_alloc_;
 };
 
 } // namespace idas::backend

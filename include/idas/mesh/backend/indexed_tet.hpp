@@ -24,17 +24,12 @@ public:
     struct undo_entry {
         enum class what : std::uint8_t {
             tet_set,
-            tet_added,
-            vertex_added,
-            vertex_removed,
-            vertex_dropped,
-            vertex_reused,
+            tet_acquired,    // a: tet slot, b: its detail::slot_source
+            tet_released,    // a: tet slot, put on the free list
+            vertex_acquired, // a: vertex slot, b: its detail::slot_source
+            vertex_released, // a: vertex slot, b: 1 if it went on the free list
             vt_insert,
-            vt_erase,
-            free_tet_pushed,
-            free_tet_popped,
-            vertex_from_pool,
-            tet_from_pool
+            vt_erase
         };
         what kind;
         index_t a = 0, b = 0, c = 0; // tet or vertex; vt: vertex, tet, position
@@ -54,7 +49,7 @@ public:
         version_.assign(tets.size(), 0);
         vt_.assign(n_vertices, {});
         valive_.assign(n_vertices, 1);
-        free_tets_.clear(), free_vertices_.clear();
+        vertex_alloc_.clear(), tet_alloc_.clear();
         for (index_t t = 0; t < tets.size(); ++t)
             for (index_t v : tets[t]) vt_[v].push_back(t);
     }
@@ -96,7 +91,7 @@ public:
         std::size_t bytes = tv_.capacity() * sizeof(tet_indices) +
                             version_.capacity() * sizeof(version_t) +
                             vt_.capacity() * sizeof(tet_list) + valive_.capacity() +
-                            (free_tets_.capacity() + free_vertices_.capacity()) * sizeof(index_t);
+                            tet_alloc_.memory_bytes() + vertex_alloc_.memory_bytes();
         for (const auto& l : vt_)
             if (l.capacity() > inline_tets) bytes += l.capacity() * sizeof(index_t);
         return bytes;
@@ -105,88 +100,58 @@ public:
     /// With recycling off, removed slots stay dead instead of being handed out again
     /// (the free lists are shared state a parallel phase must not touch); `consolidate`
     /// reclaims them later.
-    void set_slot_recycling(bool on) noexcept { recycle_ = on; }
+    void set_slot_recycling(bool on) noexcept {
+        vertex_alloc_.set_recycling(on), tet_alloc_.set_recycling(on);
+    }
 
     /// Prepares for `workers` concurrent workers that may add simplices: the arrays grow
     /// once, here, by the given number of dead slots, dealt out to per-worker pools. A
     /// worker's add_* then takes from its own pool (detail::worker_index): no reallocation,
     /// no atomics. Recycling is off until end_parallel.
     void begin_parallel(unsigned workers, index_t extra_vertices, index_t extra_tets) {
-        recycle_ = false;
-        const index_t nv =
-            vertex_pool_.deal(workers, free_vertices_, vertex_slots(), extra_vertices);
-        const index_t nt = tet_pool_.deal(workers, free_tets_, tet_slots(), extra_tets);
+        const index_t nv = vertex_alloc_.begin_parallel(workers, vertex_slots(), extra_vertices);
+        const index_t nt = tet_alloc_.begin_parallel(workers, tet_slots(), extra_tets);
         vt_.resize(nv);
         valive_.resize(nv, 0);
         tv_.resize(nt, {invalid_index, invalid_index, invalid_index, invalid_index});
         version_.resize(nt, 0);
-        parallel_ = true;
     }
     /// Unused pool slots become ordinary recyclable dead slots again.
-    void end_parallel() {
-        parallel_ = false;
-        recycle_ = true;
-        vertex_pool_.release(free_vertices_);
-        tet_pool_.release(free_tets_);
-    }
+    void end_parallel() { vertex_alloc_.end_parallel(), tet_alloc_.end_parallel(); }
     /// Whether this worker's pool can serve an operation adding these many simplices.
     bool has_room(index_t vertices, index_t tets) const noexcept {
-        if (!parallel_) return true;
-        return vertex_pool_.available(detail::worker_index) >= vertices &&
-               tet_pool_.available(detail::worker_index) >= tets;
+        return vertex_alloc_.has_room(vertices) && tet_alloc_.has_room(tets);
     }
 
     // ---- journaled mutation ----
 
-    // Dead slots are recycled newest first, so long runs keep the arrays at a steady
-    // size. A recycled tet slot keeps counting versions, so old tuples to it stay stale.
+    // Slots come from detail::slot_allocator (a worker's pool, a dead slot newest first,
+    // or appended). A recycled tet slot keeps counting versions, so old tuples to it stay
+    // stale.
     index_t add_vertex(undo_log& log) {
-        if (parallel_) {
-            const index_t v = vertex_pool_.take(detail::worker_index);
+        const auto [v, source] = vertex_alloc_.acquire(vertex_slots());
+        if (source == detail::slot_source::appended)
+            vt_.emplace_back(), valive_.push_back(1);
+        else
             valive_[v] = 1;
-            log.push_back({undo_entry::what::vertex_from_pool, v});
-            return v;
-        }
-        if (recycle_ && !free_vertices_.empty()) {
-            const index_t v = free_vertices_.back();
-            free_vertices_.pop_back();
-            valive_[v] = 1;
-            log.push_back({undo_entry::what::vertex_reused, v});
-            return v;
-        }
-        vt_.emplace_back();
-        valive_.push_back(1);
-        const index_t v = vertex_slots() - 1;
-        log.push_back({undo_entry::what::vertex_added, v});
+        log.push_back({undo_entry::what::vertex_acquired, v, index_t(source)});
         return v;
     }
     void remove_vertex(index_t v, undo_log& log) {
         assert(vt_[v].empty());
         valive_[v] = 0;
-        if (recycle_) free_vertices_.push_back(v);
-        log.push_back(
-            {recycle_ ? undo_entry::what::vertex_removed : undo_entry::what::vertex_dropped, v});
+        log.push_back({undo_entry::what::vertex_released, v, index_t(vertex_alloc_.release(v))});
     }
     index_t add_tet(const tet_indices& t, undo_log& log) {
-        index_t id;
-        if (parallel_) {
-            id = tet_pool_.take(detail::worker_index);
-            log.push_back({undo_entry::what::tet_from_pool, id});
-            save_tet(id, log);
-            tv_[id] = t;
-            bump_version(id);
-        } else if (recycle_ && !free_tets_.empty()) {
-            id = free_tets_.back();
-            free_tets_.pop_back();
-            log.push_back({undo_entry::what::free_tet_popped, id});
-            save_tet(id, log);
-            tv_[id] = t;
-            bump_version(id);
-        } else {
+        const auto [id, source] = tet_alloc_.acquire(tet_slots());
+        log.push_back({undo_entry::what::tet_acquired, id, index_t(source)});
+        if (source == detail::slot_source::appended) {
             tv_.push_back(t);
             version_.push_back(0);
-            id = tet_slots() - 1;
-            log.push_back({undo_entry::what::tet_added, id});
+        } else {
+            save_tet(id, log);
+            tv_[id] = t;
+            bump_version(id);
         }
         for (index_t v : t) vt_insert(v, id, log);
         return id;
@@ -196,10 +161,7 @@ public:
         for (index_t v : tv_[t]) vt_erase(v, t, log);
         tv_[t] = {invalid_index, invalid_index, invalid_index, invalid_index};
         bump_version(t);
-        if (recycle_) {
-            free_tets_.push_back(t);
-            log.push_back({undo_entry::what::free_tet_pushed, t});
-        }
+        if (tet_alloc_.release(t)) log.push_back({undo_entry::what::tet_released, t});
     }
     /// Rewrites a tet in place (same slot, new version).
     void set_tet(index_t t, const tet_indices& nv, undo_log& log) {
@@ -227,37 +189,22 @@ public:
             case w::tet_set:
                 tv_[e.a] = e.verts, set_version(e.a, e.version);
                 break;
-            case w::tet_added:
-                assert(e.a + 1 == tv_.size());
-                tv_.pop_back(), version_.pop_back();
+            case w::tet_acquired:
+                if (tet_alloc_.undo_acquire(e.a, detail::slot_source(e.b), tet_slots()))
+                    tv_.pop_back(), version_.pop_back();
                 break;
-            case w::vertex_added:
-                assert(e.a + 1 == vt_.size());
-                vt_.pop_back(), valive_.pop_back();
+            case w::tet_released:
+                tet_alloc_.undo_release(e.a);
                 break;
-            case w::vertex_removed:
+            case w::vertex_acquired:
+                if (vertex_alloc_.undo_acquire(e.a, detail::slot_source(e.b), vertex_slots()))
+                    vt_.pop_back(), valive_.pop_back();
+                else
+                    valive_[e.a] = 0;
+                break;
+            case w::vertex_released:
                 valive_[e.a] = 1;
-                free_vertices_.pop_back();
-                break;
-            case w::vertex_dropped:
-                valive_[e.a] = 1;
-                break;
-            case w::vertex_reused:
-                valive_[e.a] = 0;
-                free_vertices_.push_back(e.a);
-                break;
-            case w::free_tet_pushed:
-                free_tets_.pop_back();
-                break;
-            case w::free_tet_popped:
-                free_tets_.push_back(e.a);
-                break;
-            case w::vertex_from_pool:
-                valive_[e.a] = 0;
-                vertex_pool_.give_back(detail::worker_index, e.a);
-                break;
-            case w::tet_from_pool:
-                tet_pool_.give_back(detail::worker_index, e.a);
+                if (e.b) vertex_alloc_.undo_release(e.a);
                 break;
             case w::vt_insert:
                 assert(!vt_[e.a].empty() && vt_[e.a].back() == e.b);
@@ -272,8 +219,7 @@ public:
 
     friend bool operator==(const indexed_tet& x, const indexed_tet& y) {
         return x.tv_ == y.tv_ && x.version_ == y.version_ && x.valive_ == y.valive_ &&
-               x.vt_ == y.vt_ && x.free_tets_ == y.free_tets_ &&
-               x.free_vertices_ == y.free_vertices_;
+               x.vt_ == y.vt_ && x.tet_alloc_ == y.tet_alloc_ && x.vertex_alloc_ == y.vertex_alloc_;
     }
 
 private:
@@ -304,11 +250,7 @@ private:
     std::vector<version_t> version_;
     std::vector<tet_list> vt_;
     std::vector<std::uint8_t> valive_;
-    std::vector<index_t> free_tets_, free_vertices_;
-    bool recycle_ = true;
-    detail::slot_pool vertex_pool_,
-        tet_pool_; // per parallel worker, between begin_ and end_parallel
-    bool parallel_ = false;
+    detail::slot_allocator vertex_alloc_, tet_alloc_;
 };
 
 static_assert(tet_connectivity<indexed_tet>);

@@ -23,17 +23,12 @@ public:
     struct undo_entry {
         enum class what : std::uint8_t {
             face_set,
-            face_added,
-            vertex_added,
-            vertex_removed,
-            vertex_dropped,
-            vertex_reused,
+            face_acquired,   // a: face slot, b: its detail::slot_source
+            face_released,   // a: face slot, put on the free list
+            vertex_acquired, // a: vertex slot, b: its detail::slot_source
+            vertex_released, // a: vertex slot, b: 1 if it went on the free list
             vf_insert,
-            vf_erase,
-            free_face_pushed,
-            free_face_popped,
-            vertex_from_pool,
-            face_from_pool
+            vf_erase
         };
         what kind;
         index_t a = 0, b = 0, c = 0; // face or vertex; vf: vertex, face, position
@@ -53,7 +48,7 @@ public:
         version_.assign(faces.size(), 0);
         vf_.assign(n_vertices, {});
         valive_.assign(n_vertices, 1);
-        free_faces_.clear(), free_vertices_.clear();
+        vertex_alloc_.clear(), face_alloc_.clear();
         for (index_t f = 0; f < faces.size(); ++f)
             for (index_t v : faces[f]) vf_[v].push_back(f);
     }
@@ -101,89 +96,58 @@ public:
 
     /// Parallel workers share this backend, so while they run, removed slots are not
     /// recycled (the free lists would be shared state); `consolidate` reclaims them later.
-    void set_slot_recycling(bool on) noexcept { recycle_ = on; }
+    void set_slot_recycling(bool on) noexcept {
+        vertex_alloc_.set_recycling(on), face_alloc_.set_recycling(on);
+    }
 
     /// Prepares for `workers` concurrent workers that may add simplices: the arrays grow
     /// once, here, by the given number of dead slots, which are dealt out to per-worker
     /// pools. A worker's add_* then takes from its own pool (detail::worker_index): no
     /// reallocation, no atomics. Recycling is off until end_parallel.
     void begin_parallel(unsigned workers, index_t extra_vertices, index_t extra_faces) {
-        recycle_ = false;
-        const index_t nv =
-            vertex_pool_.deal(workers, free_vertices_, vertex_slots(), extra_vertices);
-        const index_t nf = face_pool_.deal(workers, free_faces_, face_slots(), extra_faces);
+        const index_t nv = vertex_alloc_.begin_parallel(workers, vertex_slots(), extra_vertices);
+        const index_t nf = face_alloc_.begin_parallel(workers, face_slots(), extra_faces);
         vf_.resize(nv);
         valive_.resize(nv, 0);
         fv_.resize(nf, {invalid_index, invalid_index, invalid_index});
         version_.resize(nf, 0);
-        parallel_ = true;
     }
     /// Unused pool slots become ordinary recyclable dead slots again.
-    void end_parallel() {
-        parallel_ = false;
-        recycle_ = true;
-        vertex_pool_.release(free_vertices_);
-        face_pool_.release(free_faces_);
-    }
+    void end_parallel() { vertex_alloc_.end_parallel(), face_alloc_.end_parallel(); }
     /// Whether this worker's pool can serve an operation adding these many simplices.
     bool has_room(index_t vertices, index_t faces) const noexcept {
-        if (!parallel_) return true;
-        return vertex_pool_.available(detail::worker_index) >= vertices &&
-               face_pool_.available(detail::worker_index) >= faces;
+        return vertex_alloc_.has_room(vertices) && face_alloc_.has_room(faces);
     }
 
     // ---- journaled mutation ----
 
-    // Dead slots are recycled (newest first), so a long run of splits and collapses
-    // keeps the arrays at a steady size instead of growing without bound. A recycled
-    // face slot keeps counting versions, so old tuples to it stay stale.
+    // Slots come from detail::slot_allocator (a worker's pool, a dead slot newest first,
+    // or appended). A recycled face slot keeps counting versions, so old tuples to it
+    // stay stale.
     index_t add_vertex(undo_log& log) {
-        if (parallel_) {
-            const index_t v = vertex_pool_.take(detail::worker_index);
+        const auto [v, source] = vertex_alloc_.acquire(vertex_slots());
+        if (source == detail::slot_source::appended)
+            vf_.emplace_back(), valive_.push_back(1);
+        else
             valive_[v] = 1;
-            log.push_back({undo_entry::what::vertex_from_pool, v});
-            return v;
-        }
-        if (recycle_ && !free_vertices_.empty()) {
-            const index_t v = free_vertices_.back();
-            free_vertices_.pop_back();
-            valive_[v] = 1;
-            log.push_back({undo_entry::what::vertex_reused, v});
-            return v;
-        }
-        vf_.emplace_back();
-        valive_.push_back(1);
-        const index_t v = vertex_slots() - 1;
-        log.push_back({undo_entry::what::vertex_added, v});
+        log.push_back({undo_entry::what::vertex_acquired, v, index_t(source)});
         return v;
     }
     void remove_vertex(index_t v, undo_log& log) {
         assert(vf_[v].empty());
         valive_[v] = 0;
-        if (recycle_) free_vertices_.push_back(v);
-        log.push_back(
-            {recycle_ ? undo_entry::what::vertex_removed : undo_entry::what::vertex_dropped, v});
+        log.push_back({undo_entry::what::vertex_released, v, index_t(vertex_alloc_.release(v))});
     }
     index_t add_face(const tri_indices& f, undo_log& log) {
-        index_t id;
-        if (parallel_) {
-            id = face_pool_.take(detail::worker_index);
-            log.push_back({undo_entry::what::face_from_pool, id});
-            save_face(id, log);
-            fv_[id] = f;
-            bump_version(id);
-        } else if (recycle_ && !free_faces_.empty()) {
-            id = free_faces_.back();
-            free_faces_.pop_back();
-            log.push_back({undo_entry::what::free_face_popped, id});
-            save_face(id, log);
-            fv_[id] = f;
-            bump_version(id);
-        } else {
+        const auto [id, source] = face_alloc_.acquire(face_slots());
+        log.push_back({undo_entry::what::face_acquired, id, index_t(source)});
+        if (source == detail::slot_source::appended) {
             fv_.push_back(f);
             version_.push_back(0);
-            id = face_slots() - 1;
-            log.push_back({undo_entry::what::face_added, id});
+        } else {
+            save_face(id, log);
+            fv_[id] = f;
+            bump_version(id);
         }
         for (index_t v : f) vf_insert(v, id, log);
         return id;
@@ -193,10 +157,7 @@ public:
         for (index_t v : fv_[f]) vf_erase(v, f, log);
         fv_[f] = {invalid_index, invalid_index, invalid_index};
         bump_version(f);
-        if (recycle_) {
-            free_faces_.push_back(f);
-            log.push_back({undo_entry::what::free_face_pushed, f});
-        }
+        if (face_alloc_.release(f)) log.push_back({undo_entry::what::face_released, f});
     }
     /// Rewrites a face in place (same slot, new version).
     void set_face(index_t f, const tri_indices& nv, undo_log& log) {
@@ -224,37 +185,22 @@ public:
             case w::face_set:
                 fv_[e.a] = e.verts, set_version(e.a, e.version);
                 break;
-            case w::face_added:
-                assert(e.a + 1 == fv_.size());
-                fv_.pop_back(), version_.pop_back();
+            case w::face_acquired:
+                if (face_alloc_.undo_acquire(e.a, detail::slot_source(e.b), face_slots()))
+                    fv_.pop_back(), version_.pop_back();
                 break;
-            case w::vertex_added:
-                assert(e.a + 1 == vf_.size());
-                vf_.pop_back(), valive_.pop_back();
+            case w::face_released:
+                face_alloc_.undo_release(e.a);
                 break;
-            case w::vertex_removed:
+            case w::vertex_acquired:
+                if (vertex_alloc_.undo_acquire(e.a, detail::slot_source(e.b), vertex_slots()))
+                    vf_.pop_back(), valive_.pop_back();
+                else
+                    valive_[e.a] = 0;
+                break;
+            case w::vertex_released:
                 valive_[e.a] = 1;
-                free_vertices_.pop_back();
-                break;
-            case w::vertex_dropped:
-                valive_[e.a] = 1;
-                break;
-            case w::vertex_reused:
-                valive_[e.a] = 0;
-                free_vertices_.push_back(e.a);
-                break;
-            case w::free_face_pushed:
-                free_faces_.pop_back();
-                break;
-            case w::vertex_from_pool:
-                valive_[e.a] = 0;
-                vertex_pool_.give_back(detail::worker_index, e.a);
-                break;
-            case w::face_from_pool:
-                face_pool_.give_back(detail::worker_index, e.a);
-                break;
-            case w::free_face_popped:
-                free_faces_.push_back(e.a);
+                if (e.b) vertex_alloc_.undo_release(e.a);
                 break;
             case w::vf_insert:
                 assert(!vf_[e.a].empty() && vf_[e.a].back() == e.b);
@@ -269,8 +215,8 @@ public:
 
     friend bool operator==(const indexed_tri& x, const indexed_tri& y) {
         return x.fv_ == y.fv_ && x.version_ == y.version_ && x.valive_ == y.valive_ &&
-               x.vf_ == y.vf_ && x.free_faces_ == y.free_faces_ &&
-               x.free_vertices_ == y.free_vertices_;
+               x.vf_ == y.vf_ && x.face_alloc_ == y.face_alloc_ &&
+               x.vertex_alloc_ == y.vertex_alloc_;
     }
 
 private:
@@ -301,11 +247,7 @@ private:
     std::vector<version_t> version_;
     std::vector<face_list> vf_;
     std::vector<std::uint8_t> valive_;
-    std::vector<index_t> free_faces_, free_vertices_;
-    bool recycle_ = true;
-    detail::slot_pool vertex_pool_,
-        face_pool_; // per parallel worker, between begin_ and end_parallel
-    bool parallel_ = false;
+    detail::slot_allocator vertex_alloc_, face_alloc_;
 };
 
 static_assert(tri_connectivity<indexed_tri>);

@@ -1,8 +1,14 @@
-// Slots for simplices created by parallel workers. Each worker takes new vertex and cell
-// slots from its own pool, so adding a simplex needs no reallocation and no atomics. The
-// pools are filled before the workers start: first with the backend's dead slots, then,
-// only if those are too few, with slots past the end of its arrays. Executor passes that
-// run one after another then reuse the same slots instead of growing the arrays each time.
+// Slot bookkeeping shared by the connectivity backends: which slot a new vertex or top
+// cell goes into, and how to undo that.
+//
+// Serially, dead slots are recycled (most recently freed first), so a long run of splits
+// and collapses keeps the arrays at a steady size instead of growing without bound.
+//
+// In a parallel phase each worker takes new vertex and cell slots from its own pool, so
+// adding a simplex needs no reallocation and no atomics. The pools are filled before the
+// workers start: first with the backend's dead slots, then, only if those are too few,
+// with slots past the end of its arrays. Executor passes that run one after another then
+// reuse the same slots instead of growing the arrays each time.
 #pragma once
 
 #include <idas/core/types.hpp>
@@ -10,6 +16,8 @@
 #include <algorithm>
 #include <cassert>
 #include <cstddef>
+#include <cstdint>
+#include <span>
 #include <vector>
 
 namespace idas::detail {
@@ -56,6 +64,98 @@ public:
 
 private:
     std::vector<std::vector<index_t>> pools_;
+};
+
+/// How slot_allocator::acquire found a slot: what undoing it takes.
+enum class slot_source : std::uint8_t {
+    appended, // one past the end: the backend grows its arrays (and shrinks them on undo)
+    reused,   // a dead slot from the free list
+    pooled    // from this worker's pool (parallel phase)
+};
+
+/// The slots of one kind of simplex (vertices, or top cells) of a backend: its dead slots
+/// waiting to be reused, the per-worker pools of a parallel phase, and the mode. It only
+/// picks slot numbers; the backend keeps its arrays and grows, fills and clears them.
+/// Every change has an undo that restores the lists exactly when changes are undone
+/// newest first, and none allocates once the lists have grown to their working size.
+class slot_allocator {
+public:
+    struct acquired {
+        index_t slot;
+        slot_source source;
+    };
+
+    /// Forgets every dead slot (the backend was rebuilt without any).
+    void clear() noexcept { free_.clear(); }
+
+    /// With recycling off, released slots stay dead instead of being handed out again
+    /// (the free list is shared state a parallel phase must not touch).
+    void set_recycling(bool on) noexcept { recycle_ = on; }
+
+    /// A slot for a new simplex, `slots` being the backend's current slot count: in a
+    /// parallel phase from this worker's pool (detail::worker_index), else the newest dead
+    /// slot if recycling is on, else `slots` itself (appended: the backend grows).
+    acquired acquire(index_t slots) noexcept {
+        if (parallel_) return {pool_.take(worker_index), slot_source::pooled};
+        if (recycle_ && !free_.empty()) {
+            const index_t s = free_.back();
+            free_.pop_back();
+            return {s, slot_source::reused};
+        }
+        return {slots, slot_source::appended};
+    }
+    /// Undoes acquire. Returns true if the slot was appended: the backend then drops its
+    /// last slot (`slots` is its current slot count, checked to end with this one).
+    bool undo_acquire(index_t slot, slot_source source, [[maybe_unused]] index_t slots) {
+        // Capacity is there: the slot came off the same list.
+        if (source == slot_source::reused) free_.push_back(slot);
+        if (source == slot_source::pooled) pool_.give_back(worker_index, slot);
+        assert(source != slot_source::appended || slot + 1 == slots);
+        return source == slot_source::appended;
+    }
+    /// A slot died. Returns whether it went on the free list (recycling on), which then
+    /// needs undo_release.
+    bool release(index_t slot) {
+        if (!recycle_) return false;
+        free_.push_back(slot);
+        return true;
+    }
+    void undo_release([[maybe_unused]] index_t slot) noexcept {
+        assert(!free_.empty() && free_.back() == slot);
+        free_.pop_back();
+    }
+
+    /// Prepares for `workers` concurrent workers: `extra` slots, dead ones first, are
+    /// dealt out to their pools, and recycling is off until end_parallel. Returns the
+    /// slot count the backend's arrays must grow to (from `slots`, the current one).
+    index_t begin_parallel(unsigned workers, index_t slots, index_t extra) {
+        recycle_ = false;
+        parallel_ = true;
+        return pool_.deal(workers, free_, slots, extra);
+    }
+    /// Unused pool slots become ordinary recyclable dead slots again.
+    void end_parallel() {
+        parallel_ = false;
+        recycle_ = true;
+        pool_.release(free_);
+    }
+    /// Whether this worker can acquire `n` slots (always, outside a parallel phase).
+    bool has_room(index_t n) const noexcept {
+        return !parallel_ || pool_.available(worker_index) >= n;
+    }
+    std::size_t available(unsigned worker) const noexcept { return pool_.available(worker); }
+
+    /// The dead slots to reuse, the next one last.
+    std::span<const index_t> free_slots() const noexcept { return free_; }
+    std::size_t memory_bytes() const noexcept { return free_.capacity() * sizeof(index_t); }
+
+    friend bool operator==(const slot_allocator&, const slot_allocator&) = default;
+
+private:
+    std::vector<index_t> free_;
+    slot_pool pool_; // per parallel worker, between begin_ and end_parallel
+    bool recycle_ = true;
+    bool parallel_ = false;
 };
 
 } // namespace idas::detail

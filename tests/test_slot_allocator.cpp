@@ -1,0 +1,100 @@
+// detail::slot_allocator: the slot bookkeeping every backend delegates to. Each undo must
+// restore the free list and the pools exactly when undone newest first.
+#include <idas/mesh/backend/slot_pools.hpp>
+
+#include <doctest/doctest.h>
+
+#include <vector>
+
+using idas::index_t;
+using idas::detail::slot_allocator;
+using idas::detail::slot_source;
+
+namespace {
+std::vector<index_t> free_list(const slot_allocator& a) {
+    return {a.free_slots().begin(), a.free_slots().end()};
+}
+} // namespace
+
+TEST_CASE("slot allocator: serial append, release, reuse newest first, undo") {
+    slot_allocator a;
+    auto x = a.acquire(5);
+    CHECK(x.slot == 5);
+    CHECK(x.source == slot_source::appended);
+    CHECK(a.release(2));
+    CHECK(a.release(4));
+    CHECK(free_list(a) == std::vector<index_t>{2, 4});
+    const slot_allocator before = a;
+
+    x = a.acquire(6);
+    CHECK(x.slot == 4); // the most recently freed
+    CHECK(x.source == slot_source::reused);
+    const auto y = a.acquire(6);
+    CHECK(y.slot == 2);
+    const auto z = a.acquire(6);
+    CHECK(z.slot == 6);
+    CHECK(z.source == slot_source::appended);
+    CHECK(free_list(a).empty());
+    CHECK(a.release(4));
+    // Undo newest first.
+    a.undo_release(4);
+    CHECK(a.undo_acquire(z.slot, z.source, 7)); // appended: the caller drops slot 6
+    CHECK(!a.undo_acquire(y.slot, y.source, 6));
+    CHECK(free_list(a) == std::vector<index_t>{2});
+    CHECK(!a.undo_acquire(x.slot, x.source, 6));
+    CHECK(a == before);
+
+    // Without recycling, released slots stay dead and dead slots are not reused.
+    a.set_recycling(false);
+    CHECK(!a.release(7));
+    CHECK(a.acquire(9).slot == 9);
+    CHECK(free_list(a) == std::vector<index_t>{2, 4});
+    a.set_recycling(true);
+    CHECK(a.acquire(9).slot == 4);
+    a.clear();
+    CHECK(free_list(a).empty());
+    CHECK(a.acquire(9).source == slot_source::appended);
+}
+
+TEST_CASE("slot allocator: parallel pools take dead slots first, undo, end_parallel") {
+    struct worker_scope { // worker_index is thread-local; leave it as found
+        unsigned saved = idas::detail::worker_index;
+        ~worker_scope() { idas::detail::worker_index = saved; }
+    } scope;
+    slot_allocator a;
+    CHECK(a.release(3));
+    CHECK(a.release(7));
+    CHECK(a.release(1));
+    // 10 slots exist; 6 extra: the 3 dead ones, then 10, 11, 12; dealt in sorted
+    // contiguous blocks: worker 0 gets {1, 3, 7}, worker 1 gets {10, 11, 12}.
+    CHECK(a.begin_parallel(2, 10, 6) == 13);
+    CHECK(free_list(a).empty());
+    CHECK(a.available(0) == 3);
+    CHECK(a.available(1) == 3);
+
+    idas::detail::worker_index = 1;
+    CHECK(a.has_room(3));
+    CHECK(!a.has_room(4));
+    const auto p = a.acquire(13);
+    CHECK(p.slot == 10); // ascending within a worker
+    CHECK(p.source == slot_source::pooled);
+    const auto q = a.acquire(13);
+    CHECK(q.slot == 11);
+    CHECK(!a.release(11)); // recycling is off in a parallel phase
+    CHECK(a.available(1) == 1);
+    CHECK(!a.undo_acquire(q.slot, q.source, 13));
+    CHECK(a.available(1) == 2);
+    CHECK(a.acquire(13).slot == 11); // given back where it was taken
+
+    idas::detail::worker_index = 0;
+    CHECK(a.acquire(13).slot == 1);
+    CHECK(a.available(0) == 2);
+
+    // Unused slots become dead slots, recycled again.
+    a.end_parallel();
+    CHECK(free_list(a) == std::vector<index_t>{3, 7, 12});
+    const auto r = a.acquire(13);
+    CHECK(r.slot == 12);
+    CHECK(r.source == slot_source::reused);
+    CHECK(a.has_room(1000)); // serial: no limit
+}
