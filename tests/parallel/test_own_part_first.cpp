@@ -22,6 +22,16 @@ using namespace idas::algorithms;
 
 using idas::test::topology_of;
 
+namespace {
+/// The mesh is consistent and has the topology it had (`before`).
+template <class Mesh>
+void check_valid_with_topology(const Mesh& m, const idas::test::topology& before) {
+    const auto e = find_inconsistency(m);
+    REQUIRE_MESSAGE(!e, *e);
+    CHECK(topology_of(m) == before);
+}
+} // namespace
+
 TEST_CASE_TEMPLATE("parallel own_part_first: no operation lost", Mesh, IDAS_TRI_MESHES) {
     // Every entry is popped once (or purged), and ends stale, skipped, attempted, retried
     // after a lock failure, or carried over to the claiming phase.
@@ -38,9 +48,7 @@ TEST_CASE_TEMPLATE("parallel own_part_first: no operation lost", Mesh, IDAS_TRI_
         CHECK(r.pushed == r.popped + r.purged);
         CHECK(r.popped == r.stale + r.skipped + r.attempted + r.lock_failures + r.crossed_parts);
         CHECK(r.attempted == r.succeeded + r.refused);
-        const auto e = find_inconsistency(m);
-        REQUIRE_MESSAGE(!e, *e);
-        CHECK(topology_of(m) == before);
+        check_valid_with_topology(m, before);
     }
 }
 
@@ -55,9 +63,7 @@ TEST_CASE_TEMPLATE("parallel own_part_first: QSlim to a target under contention"
     CHECK(r.owner_seconds > 0);
     // Overshoot is bounded by the operations in flight: two faces per worker.
     CHECK(std::abs(double(m.n_faces()) - double(spec.target_faces)) <= 2.0 * 16 + 1);
-    const auto e = find_inconsistency(m);
-    REQUIRE_MESSAGE(!e, *e);
-    CHECK(topology_of(m) == before);
+    check_valid_with_topology(m, before);
 }
 
 TEST_CASE_TEMPLATE("parallel own_part_first: remeshing, whose splits make new vertices", Mesh,
@@ -71,9 +77,7 @@ TEST_CASE_TEMPLATE("parallel own_part_first: remeshing, whose splits make new ve
     const auto r = isotropic_remeshing<Mesh, lock::own_part_first>::run(m, o, {.threads = 8});
     CHECK(r.splits > 100);
     CHECK(r.collapses > 1000);
-    const auto e = find_inconsistency(m);
-    REQUIRE_MESSAGE(!e, *e);
-    CHECK(topology_of(m) == before);
+    check_valid_with_topology(m, before);
 }
 
 #if defined(IDAS_HAS_CGAL)

@@ -283,8 +283,7 @@ struct remesh_collapse_spec : detail::with_invariants<Extra...> {
         at_a = at_a && may_stay(a, b);
         at_b = at_b && !at_a && may_stay(b, a);
         if (!at_a && !at_b) return std::nullopt;
-        const vec3 p = at_a ? m.position(a) : m.position(b);
-        return p;
+        return at_a ? m.position(a) : m.position(b);
     }
     template <class Mesh>
     bool after(op::collapse_edge, Mesh& m, const op_result<typename Mesh::tuple>& r,
