@@ -104,7 +104,16 @@ int run_harmonic(const harmonic_arguments& a) {
     // The same run on either tet backend (--backend).
     const auto flip = [&]<class Mesh>(Mesh m) {
         before = idas::algorithms::harmonic_statistics(m);
-        r = idas::algorithms::harmonic_triangulation<Mesh>::run(m, o);
+        terminal_progress bar("harmonic");
+        const unsigned phases = o.mode == idas::algorithms::harmonic_mode::reduced ? 1 : 1 + 2 * o.rounds;
+        unsigned ran = 0;
+        auto observer = [&](std::size_t phase, unsigned round, const idas::run_report& pr) {
+            static constexpr const char* names[] = {"3-2 flips", "smoothing", "seeded flips"};
+            bar.draw(double(++ran) / phases, std::string(names[phase]) + ", round " +
+                                                 std::to_string(round + 1) + ": " +
+                                                 std::to_string(pr.succeeded) + " done");
+        };
+        r = idas::algorithms::harmonic_triangulation<Mesh>::run_observed(m, o, observer);
         after = idas::algorithms::harmonic_statistics(m);
         std::tie(v.vertices, v.tets) = m.to_arrays();
     };

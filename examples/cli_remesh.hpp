@@ -22,9 +22,17 @@ idas::algorithms::remeshing_report remesh_with(Mesh& m,
                                                unsigned threads, Extra... extra) {
     idas::exec_options exec;
     exec.threads = threads;
+    terminal_progress bar("remesh");
+    static constexpr const char* phases[] = {"split", "collapse", "swap", "smooth"};
+    auto observer = [&](std::size_t phase, unsigned iteration, const idas::run_report&) {
+        const double done = double(iteration * 4 + phase + 1) / double(4 * o.iterations);
+        bar.draw(done, "iteration " + std::to_string(iteration + 1) + "/" +
+                           std::to_string(o.iterations) + ", " + phases[phase % 4]);
+    };
     return idas::algorithms::isotropic_remeshing<Mesh, idas::lock::vertex_try_lock,
                                                  idas::queue::dary_heap<4>, idas::partition::morton,
-                                                 Extra...>::run(m, o, exec, extra...);
+                                                 Extra...>::run_observed(m, o, exec, observer,
+                                                                         extra...);
 }
 
 template <class Mesh>

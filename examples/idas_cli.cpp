@@ -47,6 +47,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <exception>
 #include <limits>
 #include <new>
@@ -585,54 +586,36 @@ int run_demo(const std::string& in, const std::string& out, bool as_json, std::u
 
 // ---- decimate ------------------------------------------------------------------------------
 
-/// Wraps a decimation spec to draw a progress bar on a terminal. The executor calls
-/// `stop` after every success (serial) or every few (parallel workers): the bar is
-/// redrawn at most ten times a second, by whichever thread gets there first, and only
-/// once the run has lasted a second.
+#include "cli_progress.hpp"
+
+/// Wraps a decimation spec to draw a progress bar: the executor calls `stop` after every
+/// success (serial) or every few (parallel workers). The wrapped type is the executor's
+/// spec (Algorithm::with_spec), so this `stop` is the one called.
 template <class Base>
 struct with_progress_bar : Base {
     std::int64_t start_faces = 0;
-    bool enabled = false;
-    std::chrono::steady_clock::time_point started = std::chrono::steady_clock::now();
-    std::atomic<std::int64_t> next_draw_ms{1000};
-    std::atomic<bool> drawn{false};
+    terminal_progress* bar = nullptr;
 
     bool stop(const idas::progress& p) {
-        if (enabled && (p.successes & 255) == 0) {
-            const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(
-                                std::chrono::steady_clock::now() - started)
-                                .count();
-            std::int64_t due = next_draw_ms.load(std::memory_order_relaxed);
-            if (ms >= due && next_draw_ms.compare_exchange_strong(due, ms + 100)) {
-                const double done =
-                    double(start_faces - p.faces) /
-                    double(std::max<std::int64_t>(1, start_faces - this->target_faces));
-                const int width = 40, filled = static_cast<int>(std::clamp(done, 0.0, 1.0) * width);
-                std::fprintf(stderr, "\rdecimate [%s%s] %3.0f%%  %lld faces",
-                             std::string(filled, '#').c_str(),
-                             std::string(width - filled, '.').c_str(),
-                             100 * std::clamp(done, 0.0, 1.0), static_cast<long long>(p.faces));
-                drawn = true;
-            }
+        if (bar && (p.successes & 255) == 0) {
+            const double done = double(start_faces - p.faces) /
+                                double(std::max<std::int64_t>(1, start_faces - this->target_faces));
+            bar->draw(done, std::to_string(p.faces) + " faces");
         }
         return Base::stop(p);
-    }
-    void finish() {
-        if (drawn) std::fprintf(stderr, "\n");
     }
 };
 
 template <class Algorithm, class Spec, class Mesh>
 idas::run_report decimate_with(Mesh& m, std::int64_t target, unsigned threads) {
+    terminal_progress bar("decimate");
     with_progress_bar<Spec> spec;
     spec.target_faces = target;
     spec.start_faces = static_cast<std::int64_t>(m.n_faces());
-    spec.enabled = isatty(fileno(stderr)) != 0;
+    spec.bar = bar.enabled() ? &bar : nullptr;
     idas::exec_options options;
     options.threads = threads;
-    const auto report = Algorithm::run(m, spec, options);
-    spec.finish();
-    return report;
+    return Algorithm::template with_spec<with_progress_bar<Spec>>::run(m, spec, options);
 }
 
 template <class Mesh>

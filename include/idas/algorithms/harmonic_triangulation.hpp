@@ -33,6 +33,7 @@
 #pragma once
 
 #include <idas/exec/executor.hpp>
+#include <idas/exec/schedule.hpp>
 #include <idas/invariants/positive_orientation.hpp>
 #include <idas/mesh/tet_mesh.hpp>
 #include <idas/ops/tet_ops.hpp>
@@ -197,7 +198,7 @@ bool short_edge_ring(const Mesh& m, index_t a, index_t b, std::size_t max_tets,
 /// slot's entry is written by the worker that created the tet, which holds all its
 /// vertices, and read only by workers holding one of them.
 template <harmonic_mode Mode>
-struct harmonic_flip_spec {
+struct harmonic_flip_rules {
     using operations =
         std::conditional_t<Mode == harmonic_mode::reduced, op_list<op::edge_swap_32>,
                            op_list<op::edge_swap_32, op::edge_swap_44, op::face_swap_23>>;
@@ -349,8 +350,8 @@ struct harmonic_flip_spec {
     // neighbours across the outer faces too, tets whose fourth vertex is not held: they
     // keep the executor's default region (the closed stars).
     template <class Op, class Mesh, class Claim>
-    requires(!detail::links_faces<Mesh>) bool lock_region(Op, const Mesh& m, const tet_tuple& t,
-                                                          Claim&& claim) const {
+    bool lock_region(Op, const Mesh& m, const tet_tuple& t, Claim&& claim) const {
+        if constexpr (detail::links_faces<Mesh>) return closed_star_region<Op>(m, t, claim);
         const auto& tv = m.tet_vertices(t.tid);
         for (index_t x : tv)
             if (!claim(x)) return false;
@@ -397,7 +398,7 @@ struct harmonic_flip_spec {
     /// The initial candidates found at vertex a, from its star (no global edge or face ids
     /// needed): edges ab and faces abc whose smallest vertex is a.
     template <class Mesh, class Push>
-    void initial_at(const Mesh& m, index_t a, Push&& push) const {
+    void candidates_at(const Mesh& m, index_t a, Push&& push) const {
         // The b > a of edges ab, and (in the marks) how many tets each edge has.
         auto& marks = detail::vertex_marks::local();
         marks.start(m.vertex_slots());
@@ -491,23 +492,28 @@ struct harmonic_flip_spec {
     }
 };
 
+/// The flip phase as a spec: candidates found at every vertex (by each worker in its part).
+template <harmonic_mode Mode>
+struct harmonic_flip_spec : harmonic_flip_rules<Mode> {
+    template <class Mesh, class Push>
+    void initial_at(const Mesh& m, index_t a, Push& push) const {
+        this->candidates_at(m, a, push);
+    }
+};
+
 /// Complete-mode flips (2-3, 3-2, 4-4) seeded from the worst tets only: the edges and faces
 /// of tets whose energy exceeds `above` times the mean, instead of every edge and face
 /// (a scan that costs as much as a smoothing pass). Improvements then spread through
 /// `renew` as usual.
-struct harmonic_seeded_flip_spec : harmonic_flip_spec<harmonic_mode::complete> {
+struct harmonic_seeded_flip_spec : harmonic_flip_rules<harmonic_mode::complete> {
     double above = 8;
-
-    // Hidden, so that parallel runs (which prefer initial_at) seed through `initial` too.
-    template <class Mesh, class Push>
-    void initial_at(const Mesh&, index_t, Push&&) const = delete;
 
     double bar = 0;            // seeds: tets with E above this (set by prepare)
     std::size_t seed_tets = 0; // how many
 
     template <class Mesh>
     void prepare(const Mesh& m, const exec_options& o = {}) {
-        harmonic_flip_spec<harmonic_mode::complete>::prepare(m, o);
+        harmonic_flip_rules<harmonic_mode::complete>::prepare(m, o);
         bar = live_tets ? above * total_energy / double(live_tets) : 0.0;
         seed_tets = 0;
         for (index_t t = 0; t < m.tet_slots(); ++t)
@@ -699,58 +705,66 @@ struct harmonic_report {
     double owner_seconds = 0; // lock-free phases of own_part_first
 };
 
-/// The whole algorithm on one mesh type and lock policy: flips, then (complete mode)
-/// rounds of smoothing and flips. Its phases run until their queues are empty, in no
-/// particular order, so each part's own operations can all go first: own_part_first.
+/// The schedules: both modes start with 3-2 swaps to convergence (they are the cheapest
+/// flips: the candidates are the valence-3 edges, and they do most of the work). Complete
+/// mode then alternates smoothing passes, which lower the energy most, with all three flips
+/// seeded from the tets still far above the mean, until a round does nothing. The seeds
+/// give a few thousand flips: on one thread, as starting workers (partition, slot pools)
+/// costs more than they save.
+using harmonic_reduced_schedule =
+    schedule::sequence<schedule::phase<harmonic_flip_spec<harmonic_mode::reduced>>>;
+using harmonic_complete_schedule = schedule::sequence<
+    schedule::phase<harmonic_flip_spec<harmonic_mode::reduced>>,
+    schedule::repeat_while_busy<schedule::phase<harmonic_smooth_spec>,
+                                schedule::phase<harmonic_seeded_flip_spec, schedule::default_queue, 1>>>;
+
+/// The whole algorithm on one mesh type and lock policy. Its phases run until their queues
+/// are empty, in no particular order, so each part's own operations can all go first:
+/// own_part_first.
 template <class Mesh = tet_mesh<>, lock_policy Lock = lock::own_part_first,
           class Partition = partition::morton>
 struct harmonic_triangulation {
-    template <harmonic_mode M>
-    using flips = executor<harmonic_flip_spec<M>, Mesh, Lock, queue::fifo, Partition>;
-    using smooth = executor<harmonic_smooth_spec, Mesh, Lock, queue::fifo, Partition>;
-    using seeded = executor<harmonic_seeded_flip_spec, Mesh, Lock, queue::fifo, Partition>;
-
     static harmonic_report run(Mesh& m, const harmonic_options& o = {}) {
-        const auto start = std::chrono::steady_clock::now();
+        return run_observed(m, o, schedule::no_observer{});
+    }
+
+    /// The same, telling `observer(phase, round, run_report)` after every phase (0: the
+    /// 3-2 flips; complete mode: 1 smoothing, 2 seeded flips).
+    template <class Observer>
+    static harmonic_report run_observed(Mesh& m, const harmonic_options& o, Observer&& observer) {
+        harmonic_flip_spec<harmonic_mode::reduced> reduced{{o.keep_max}};
         harmonic_report rep;
-        auto add = [&](const run_report& r, std::uint64_t& counter) {
-            counter += r.succeeded, rep.attempted += r.attempted;
-            (&counter == &rep.flips ? rep.flip_seconds : rep.smooth_seconds) += r.seconds;
+        auto add = [&](const run_report& r, std::uint64_t& counter, double& seconds) {
+            counter += r.succeeded, rep.attempted += r.attempted, seconds += r.seconds;
             rep.lock_failures += r.lock_failures, rep.deferred_to_serial += r.deferred_to_serial;
             rep.crossed_parts += r.crossed_parts, rep.owner_seconds += r.owner_seconds;
         };
-        // Both modes start with 3-2 swaps to convergence: they are the cheapest flips (the
-        // candidates are the valence-3 edges) and do most of the work. Complete mode then
-        // alternates smoothing passes, which lower the energy most, with all three flips
-        // seeded from the tets still far above the mean.
-        harmonic_flip_spec<harmonic_mode::reduced> reduced{o.keep_max};
-        add(flips<harmonic_mode::reduced>::run(m, reduced, o.exec), rep.flips);
-        if (o.mode == harmonic_mode::complete) {
-            for (unsigned round = 0; round < o.rounds; ++round) {
-                harmonic_smooth_spec smoothing;
-                smoothing.keep_max = o.keep_max;
-                const run_report sr = smooth::run(m, smoothing, o.exec);
-                add(sr, rep.smoothed);
-                // The seeds give a few thousand flips: on one thread, as starting workers
-                // (partition, slot pools) costs more than they save.
-                harmonic_seeded_flip_spec seeds;
-                seeds.keep_max = o.keep_max, seeds.above = o.seed_above;
-                seeds.prepare_threads = o.exec.threads;
-                exec_options one = o.exec;
-                one.threads = 1;
-                const run_report fr = seeded::run(m, seeds, one);
-                add(fr, rep.flips);
-                if (sr.succeeded == 0 && fr.succeeded == 0) break;
-            }
+        if (o.mode == harmonic_mode::reduced) {
+            using driver =
+                schedule::driver<harmonic_reduced_schedule, Mesh, Lock, queue::fifo, Partition>;
+            const auto r = driver::run(m, o.exec, 1, observer, reduced);
+            add(r.phases[0], rep.flips, rep.flip_seconds);
+            rep.seconds = r.seconds;
+            return rep;
         }
-        rep.seconds =
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        harmonic_smooth_spec smoothing;
+        smoothing.keep_max = o.keep_max;
+        harmonic_seeded_flip_spec seeds;
+        seeds.keep_max = o.keep_max, seeds.above = o.seed_above;
+        seeds.prepare_threads = o.exec.threads; // its energies: on every thread
+        using driver =
+            schedule::driver<harmonic_complete_schedule, Mesh, Lock, queue::fifo, Partition>;
+        const auto r = driver::run(m, o.exec, o.rounds, observer, reduced, smoothing, seeds);
+        add(r.phases[0], rep.flips, rep.flip_seconds);
+        add(r.phases[1], rep.smoothed, rep.smooth_seconds);
+        add(r.phases[2], rep.flips, rep.flip_seconds);
+        rep.seconds = r.seconds;
         return rep;
     }
 };
 
-static_assert(schedule_spec<harmonic_flip_spec<harmonic_mode::complete>, tet_mesh<>>);
-static_assert(schedule_spec<harmonic_smooth_spec, tet_mesh<>>);
+static_assert(spec_for<harmonic_flip_spec<harmonic_mode::complete>, tet_mesh<>>);
+static_assert(spec_for<harmonic_smooth_spec, tet_mesh<>>);
 static_assert(tet_mesh_like<tet_mesh<>>);
 static_assert(!detail::links_faces<tet_mesh<>>); // so the flips' minimal lock regions apply
 

@@ -18,8 +18,10 @@
 #include <idas/algorithms/decimation_common.hpp>
 #include <idas/core/aabb_tree.hpp>
 #include <idas/core/geometry.hpp>
+#include <idas/exec/schedule.hpp>
 #include <idas/invariants/link_condition.hpp>
 #include <idas/invariants/no_normal_flip.hpp>
+#include <idas/mesh/temporary_attribute.hpp>
 
 #include <boost/container/small_vector.hpp>
 
@@ -30,6 +32,7 @@
 #include <memory>
 #include <numbers>
 #include <optional>
+#include <system_error>
 #include <thread>
 #include <tuple>
 #include <utility>
@@ -44,7 +47,46 @@ struct remeshing_options {
     bool project = true;           // project smoothed vertices back onto the input
 };
 
+namespace detail {
+/// A job on its own thread, joined by wait() or at the latest by the destructor; wait()
+/// rethrows what the job threw.
+class background_task {
+public:
+    /// Starts the job; if no thread can be had, runs it here and now.
+    template <class Job>
+    void start(Job job) {
+        auto shared = std::make_shared<Job>(std::move(job));
+        try {
+            thread_ = std::thread([this, shared] { run(*shared); });
+        } catch (const std::system_error&) {
+            run(*shared);
+        }
+    }
+    void wait() {
+        if (thread_.joinable()) thread_.join();
+        if (failure_) std::rethrow_exception(std::exchange(failure_, nullptr));
+    }
+    ~background_task() {
+        if (thread_.joinable()) thread_.join();
+    }
+
+private:
+    template <class Job>
+    void run(Job& job) {
+        try {
+            job();
+        } catch (...) {
+            failure_ = std::current_exception();
+        }
+    }
+
+    std::thread thread_;
+    std::exception_ptr failure_;
+};
+} // namespace detail
+
 /// What the four phase specs share: L, the frozen flags, the input surface for projection.
+/// The attribute columns are the run's own: removed when it returns.
 struct remeshing_state {
     double L = 0;
     vertex_attribute<std::uint8_t> frozen;
@@ -53,6 +95,7 @@ struct remeshing_state {
     // a collapse's survivor is if either end was), so valences are O(1) to get.
     vertex_attribute<std::uint8_t> boundary;
     std::shared_ptr<const triangle_aabb_tree> input;
+    detail::background_task input_build; // builds `input` beside the first phases
     // Smoothing pass stamp: a vertex whose `smoothed` equals `pass` was moved in this pass
     // (so each vertex moves at most once per pass).
     vertex_attribute<std::uint32_t> smoothed;
@@ -153,7 +196,7 @@ struct with_invariants<> {
 template <class... Extra>
 struct remesh_split_spec : detail::with_invariants<Extra...> {
     using operations = op_list<op::split_edge>;
-    remeshing_state* s = nullptr;
+    remeshing_state& s;
 
     struct cache {
         vec3 position;
@@ -163,7 +206,7 @@ struct remesh_split_spec : detail::with_invariants<Extra...> {
     template <class Mesh>
     bool too_long(const Mesh& m, const typename Mesh::tuple& t) const {
         const auto [a, b] = m.edge_vertices(t);
-        const double hi = 4.0 / 3.0 * s->L;
+        const double hi = 4.0 / 3.0 * s.L;
         return squared_norm(m.position(a) - m.position(b)) > hi * hi;
     }
     // Only candidates enter the queue: most edges are already fine.
@@ -182,9 +225,9 @@ struct remesh_split_spec : detail::with_invariants<Extra...> {
     std::optional<cache> before(op::split_edge, const Mesh& m,
                                 const typename Mesh::tuple& t) const {
         const auto [a, b] = m.edge_vertices(t);
-        const double hi = 4.0 / 3.0 * s->L;
+        const double hi = 4.0 / 3.0 * s.L;
         if (!(squared_norm(m.position(a) - m.position(b)) > hi * hi)) return std::nullopt;
-        const auto fe = m.attribute(s->feature), fr = m.attribute(s->frozen);
+        const auto fe = m.attribute(s.feature), fr = m.attribute(s.frozen);
         // A split boundary edge keeps its new vertex on the boundary; one joining two
         // feature vertices is taken to lie on the feature line.
         const bool on_feature = fe[a] && fe[b];
@@ -198,9 +241,9 @@ struct remesh_split_spec : detail::with_invariants<Extra...> {
                const cache& c) const {
         const index_t v = r.anchor.vid;
         m.positions().set(v, c.position);
-        m.attribute(s->frozen).set(v, c.frozen);
-        m.attribute(s->feature).set(v, c.feature);
-        m.attribute(s->boundary).set(v, c.boundary);
+        m.attribute(s.frozen).set(v, c.frozen);
+        m.attribute(s.feature).set(v, c.feature);
+        m.attribute(s.boundary).set(v, c.boundary);
         return true;
     }
     template <class Mesh, class Push>
@@ -216,18 +259,18 @@ struct remesh_split_spec : detail::with_invariants<Extra...> {
 template <class... Extra>
 struct remesh_collapse_spec : detail::with_invariants<Extra...> {
     using operations = op_list<op::collapse_edge>;
-    remeshing_state* s = nullptr;
+    remeshing_state& s;
 
     template <class Mesh>
     bool too_short(const Mesh& m, const typename Mesh::tuple& t) const {
         const auto [a, b] = m.edge_vertices(t);
-        const double lo = 0.8 * s->L;
+        const double lo = 0.8 * s.L;
         return squared_norm(m.position(a) - m.position(b)) < lo * lo;
     }
     template <class Push, class Mesh>
     void initial_at(const Mesh& m, index_t v, Push& push) const {
         for_each_edge_from(m, v, [&](const typename Mesh::tuple& t) {
-            if (too_short(m, t)) push(op::collapse_edge{}, detail::frozen_first(m, *s, t));
+            if (too_short(m, t)) push(op::collapse_edge{}, detail::frozen_first(m, s, t));
         });
     }
     template <class Mesh>
@@ -239,9 +282,9 @@ struct remesh_collapse_spec : detail::with_invariants<Extra...> {
     std::optional<vec3> before(op::collapse_edge, const Mesh& m,
                                const typename Mesh::tuple& t) const {
         const auto [a, b] = m.edge_vertices(t);
-        const double lo = 0.8 * s->L, hi = 4.0 / 3.0 * s->L;
+        const double lo = 0.8 * s.L, hi = 4.0 / 3.0 * s.L;
         if (!(squared_norm(m.position(a) - m.position(b)) < lo * lo)) return std::nullopt;
-        const auto fr = m.attribute(s->frozen), bd = m.attribute(s->boundary);
+        const auto fr = m.attribute(s.frozen), bd = m.attribute(s.boundary);
         if (fr[b]) return std::nullopt; // a frozen vertex never vanishes
         // Where the survivor may go: an endpoint, so it stays on the input surface (a
         // midpoint would cut chords into curved regions: armadillo's farthest output point
@@ -270,7 +313,7 @@ struct remesh_collapse_spec : detail::with_invariants<Extra...> {
         // 0.90 L); the bound on the move keeps collapses from cutting creases, where the
         // farthest input points from the output were (bunny's cut-off bottom rim:
         // 0.0023 -> 0.0019 of the diagonal).
-        const double reach = 0.2 * s->L;
+        const double reach = 0.2 * s.L;
         auto may_stay = [&](index_t kept, index_t removed) {
             for (index_t v : {a, b})
                 for (index_t f : m.vertex_faces(v))
@@ -293,14 +336,14 @@ struct remesh_collapse_spec : detail::with_invariants<Extra...> {
         bool open = false;
         for (const auto& c : r.cells)
             open = open || m.is_boundary_edge(c) || m.is_boundary_edge(m.switch_edge(c));
-        m.attribute(s->boundary).set(r.anchor.vid, open);
+        m.attribute(s.boundary).set(r.anchor.vid, open);
         return true;
     }
     template <class Mesh, class Push>
     void renew(op::collapse_edge, const Mesh& m, const op_result<typename Mesh::tuple>& r,
                Push& push) const {
         auto oriented = [&](op::collapse_edge o, const typename Mesh::tuple& t) {
-            if (too_short(m, t)) push(o, detail::frozen_first(m, *s, t));
+            if (too_short(m, t)) push(o, detail::frozen_first(m, s, t));
         };
         push_star_edges<op::collapse_edge>(m, r, oriented);
     }
@@ -309,7 +352,7 @@ struct remesh_collapse_spec : detail::with_invariants<Extra...> {
 template <class... Extra>
 struct remesh_swap_spec : detail::with_invariants<Extra...> {
     using operations = op_list<op::swap_edge>;
-    remeshing_state* s = nullptr;
+    remeshing_state& s;
 
     // Only candidates enter the queue: most edges are not worth flipping.
     template <class Push, class Mesh>
@@ -322,11 +365,11 @@ struct remesh_swap_spec : detail::with_invariants<Extra...> {
     bool before(op::swap_edge, const Mesh& m, const typename Mesh::tuple& t) const {
         if (m.is_boundary_edge(t)) return false;
         const auto [a, b] = m.edge_vertices(t);
-        const auto fe = m.attribute(s->feature);
+        const auto fe = m.attribute(s.feature);
         if (fe[a] && fe[b]) return false; // keep feature lines
         const index_t c = m.opposite_vertex(t), d = m.opposite_vertex(*m.switch_face(t));
         auto dev = [&](index_t v, int change) {
-            return detail::valence_deviation(m, *s, v, change);
+            return detail::valence_deviation(m, s, v, change);
         };
         const double now = dev(a, 0) + dev(b, 0) + dev(c, 0) + dev(d, 0);
         const double then = dev(a, -1) + dev(b, -1) + dev(c, +1) + dev(d, +1);
@@ -342,7 +385,7 @@ struct remesh_swap_spec : detail::with_invariants<Extra...> {
             // Smoothing evens out a thinner pair later, except at frozen vertices, which
             // never move: there the flip may not make the quad's smallest angle smaller
             // (else a 9 degree triangle stayed on bunny's kept border).
-            const auto fr = m.attribute(s->frozen);
+            const auto fr = m.attribute(s.frozen);
             if (fr[a] || fr[b] || fr[c] || fr[d]) return new_min >= old_min;
             return new_min >= 0.5 * old_min;
         }
@@ -384,13 +427,20 @@ struct remesh_swap_spec : detail::with_invariants<Extra...> {
 template <class... Extra>
 struct remesh_smooth_spec : detail::with_invariants<Extra...> {
     using operations = op_list<op::smooth_vertex>;
-    remeshing_state* s = nullptr;
+    remeshing_state& s;
     bool project = true;
+
+    /// A new pass: each vertex moves at most once in it; projection needs the input's tree.
+    template <class Mesh>
+    void prepare(Mesh&) {
+        ++s.pass;
+        s.input_build.wait();
+    }
 
     template <class Mesh>
     bool movable(const Mesh& m, index_t v) const {
-        return !m.attribute(s->frozen)[v] && !m.attribute(s->boundary)[v] &&
-               m.attribute(s->smoothed)[v] != s->pass;
+        return !m.attribute(s.frozen)[v] && !m.attribute(s.boundary)[v] &&
+               m.attribute(s.smoothed)[v] != s.pass;
     }
     template <class Push, class Mesh>
     void initial_at(const Mesh& m, index_t v, Push& push) const {
@@ -424,47 +474,18 @@ struct remesh_smooth_spec : detail::with_invariants<Extra...> {
         if (const double l = norm(n); l > 0) n /= l;
         const vec3 p = m.position(v);
         vec3 q = p + (c - p) - n * dot(c - p, n); // tangential part of the move only
-        if (project && s->input) q = s->input->closest_point(q).point;
+        if (project && s.input) q = s.input->closest_point(q).point;
         return q;
     }
     template <class Mesh>
     bool after(op::smooth_vertex, Mesh& m, const op_result<typename Mesh::tuple>& r,
                const vec3& q) const {
         m.positions().set(r.anchor.vid, q);
-        m.attribute(s->smoothed).set(r.anchor.vid, s->pass);
+        m.attribute(s.smoothed).set(r.anchor.vid, s.pass);
         return true;
     }
 };
 
-namespace detail {
-/// A job on its own thread, joined by wait() or at the latest by the destructor; wait()
-/// rethrows what the job threw.
-class background_task {
-public:
-    template <class Job>
-    void start(Job job) {
-        thread_ = std::thread([this, job = std::move(job)]() mutable {
-            try {
-                job();
-            } catch (...) {
-                failure_ = std::current_exception();
-            }
-        });
-    }
-    void wait() {
-        if (!thread_.joinable()) return;
-        thread_.join();
-        if (failure_) std::rethrow_exception(std::exchange(failure_, nullptr));
-    }
-    ~background_task() {
-        if (thread_.joinable()) thread_.join();
-    }
-
-private:
-    std::thread thread_;
-    std::exception_ptr failure_;
-};
-} // namespace detail
 
 struct remeshing_report {
     unsigned iterations = 0;
@@ -472,62 +493,68 @@ struct remeshing_report {
     double seconds = 0;
 };
 
+/// The remeshing schedule: split, collapse, swap, smooth, repeated until an iteration
+/// changes no connectivity (or the iteration count is reached).
+template <class... Extra>
+using remeshing_schedule =
+    schedule::repeat<schedule::phase<remesh_split_spec<Extra...>>,
+                     schedule::phase<remesh_collapse_spec<Extra...>>,
+                     schedule::phase<remesh_swap_spec<Extra...>>,
+                     schedule::phase<remesh_smooth_spec<Extra...>, queue::fifo>>;
+
 /// The whole algorithm: policies as template arguments, extra invariants as `Extra...`
 /// (constructed by the caller, e.g. an envelope of the input).
 template <class Mesh = tri_mesh<>, class Lock = lock::vertex_try_lock,
           class Queue = queue::dary_heap<4>, class Partition = partition::morton, class... Extra>
 struct isotropic_remeshing {
+    using schedule_type = remeshing_schedule<Extra...>;
+    using driver = schedule::driver<schedule_type, Mesh, Lock, Queue, Partition>;
+
     static remeshing_report run(Mesh& m, const remeshing_options& o, const exec_options& exec = {},
                                 Extra... extra) {
-        const auto start = std::chrono::steady_clock::now();
+        return run_observed(m, o, exec, schedule::no_observer{}, extra...);
+    }
+
+    /// The same, telling `observer(phase, iteration, run_report)` after every phase (phases
+    /// 0-3: split, collapse, swap, smooth).
+    template <class Observer>
+    static remeshing_report run_observed(Mesh& m, const remeshing_options& o,
+                                         const exec_options& exec, Observer&& observer,
+                                         Extra... extra) {
         remeshing_state s;
         s.L = o.target_length;
-        s.frozen = m.template add_vertex_attribute<std::uint8_t>("remesh_frozen", 0);
-        s.feature = m.template add_vertex_attribute<std::uint8_t>("remesh_feature", 0);
-        s.boundary = m.template add_vertex_attribute<std::uint8_t>("remesh_boundary", 0);
-        s.smoothed = m.template add_vertex_attribute<std::uint32_t>("remesh_smoothed", 0);
+        const temporary_attribute frozen(m, m.template add_vertex_attribute<std::uint8_t>("remesh_frozen", 0));
+        const temporary_attribute feature(m, m.template add_vertex_attribute<std::uint8_t>("remesh_feature", 0));
+        const temporary_attribute boundary(m, m.template add_vertex_attribute<std::uint8_t>("remesh_boundary", 0));
+        const temporary_attribute smoothed(m, m.template add_vertex_attribute<std::uint32_t>("remesh_smoothed", 0));
+        s.frozen = frozen.handle, s.feature = feature.handle, s.boundary = boundary.handle;
+        s.smoothed = smoothed.handle;
         // Only smoothing projects onto the input, so with several threads its tree is
         // built beside the first split and collapse phases instead of before them (on
         // armadillo x4 the build is 0.35 s, a tenth of a serial remesh).
-        detail::background_task tree_build;
         if (o.project) {
             auto build = [&s, arrays = m.to_arrays()] {
                 s.input = std::make_shared<const triangle_aabb_tree>(arrays.first, arrays.second);
             };
             if (exec.threads > 1)
-                tree_build.start(std::move(build));
+                s.input_build.start(std::move(build));
             else
                 build();
         }
         mark_frozen(m, s, o);
 
-        remesh_split_spec<Extra...> split{{std::tuple<Extra...>(extra...)}, &s};
-        remesh_collapse_spec<Extra...> collapse{{std::tuple<Extra...>(extra...)}, &s};
-        remesh_swap_spec<Extra...> swap{{std::tuple<Extra...>(extra...)}, &s};
-        remesh_smooth_spec<Extra...> smooth{{std::tuple<Extra...>(extra...)}, &s, o.project};
+        remesh_split_spec<Extra...> split{{std::tuple<Extra...>(extra...)}, s};
+        remesh_collapse_spec<Extra...> collapse{{std::tuple<Extra...>(extra...)}, s};
+        remesh_swap_spec<Extra...> swap{{std::tuple<Extra...>(extra...)}, s};
+        remesh_smooth_spec<Extra...> smooth{{std::tuple<Extra...>(extra...)}, s, o.project};
 
+        const auto r = driver::run(m, exec, o.iterations, observer, split, collapse, swap, smooth);
+        s.input_build.wait(); // joined before the state goes, even if no smoothing ran
         remeshing_report report;
-        for (unsigned it = 0; it < o.iterations; ++it) {
-            const auto a = executor<remesh_split_spec<Extra...>, Mesh, Lock, Queue, Partition>::run(
-                m, split, exec);
-            const auto b =
-                executor<remesh_collapse_spec<Extra...>, Mesh, Lock, Queue, Partition>::run(
-                    m, collapse, exec);
-            const auto c = executor<remesh_swap_spec<Extra...>, Mesh, Lock, Queue, Partition>::run(
-                m, swap, exec);
-            ++s.pass;
-            tree_build.wait();
-            const auto d =
-                executor<remesh_smooth_spec<Extra...>, Mesh, Lock, queue::fifo, Partition>::run(
-                    m, smooth, exec);
-            report.splits += a.succeeded, report.collapses += b.succeeded,
-                report.swaps += c.succeeded;
-            report.smooths += d.succeeded;
-            ++report.iterations;
-            if (a.succeeded + b.succeeded + c.succeeded == 0) break; // converged
-        }
-        report.seconds =
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        report.iterations = r.iterations;
+        report.splits = r.phases[0].succeeded, report.collapses = r.phases[1].succeeded;
+        report.swaps = r.phases[2].succeeded, report.smooths = r.phases[3].succeeded;
+        report.seconds = r.seconds;
         return report;
     }
 
@@ -555,5 +582,8 @@ private:
         }
     }
 };
+
+static_assert(spec_for<remesh_split_spec<>, tri_mesh<>> && spec_for<remesh_collapse_spec<>, tri_mesh<>> &&
+              spec_for<remesh_swap_spec<>, tri_mesh<>> && spec_for<remesh_smooth_spec<>, tri_mesh<>>);
 
 } // namespace idas::algorithms

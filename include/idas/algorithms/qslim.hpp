@@ -110,7 +110,7 @@ struct qslim_spec : collapse_schedule {
     template <class Mesh>
     void prepare(Mesh& m) {
         forget_refusals(m);
-        if (!Q.valid()) Q = m.template add_vertex_attribute<quadric>("qslim_quadric");
+        Q = m.template add_vertex_attribute<quadric>("qslim_quadric");
         auto q = m.attribute(Q);
         for (index_t v = 0; v < m.vertex_slots(); ++v) q.raw(v) = {};
         m.for_each_face([&](const typename Mesh::tuple& t) {
@@ -137,6 +137,13 @@ struct qslim_spec : collapse_schedule {
                 q.raw(a) += kb, q.raw(b) += kb;
             }
         });
+    }
+
+    /// The quadrics are the run's own: removed when it ends.
+    template <class Mesh>
+    void finish(Mesh& m) {
+        m.remove_attribute(Q);
+        Q = {};
     }
 
     template <class Mesh>
@@ -178,5 +185,7 @@ struct qslim_spec : collapse_schedule {
 template <class Mesh = tri_mesh<>, class Lock = lock::vertex_try_lock,
           class Queue = queue::dary_heap<4>, class Partition = partition::morton>
 using qslim = executor<qslim_spec, Mesh, Lock, Queue, Partition>;
+
+static_assert(spec_for<qslim_spec, tri_mesh<>>);
 
 } // namespace idas::algorithms

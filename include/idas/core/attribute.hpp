@@ -148,6 +148,20 @@ namespace detail {
 inline thread_local attribute_journal* active_attribute_journal = nullptr;
 } // namespace detail
 
+/// Read-only view of one attribute column: what a const mesh hands out, so hooks that see
+/// the mesh before an operation (`before`, `priority`, invariants) cannot write.
+template <attribute_value T>
+class attribute_view {
+public:
+    explicit attribute_view(const detail::column<T>* c)
+        : col_(c) {}
+    const T& operator[](index_t i) const noexcept { return col_->values[i]; }
+    const T& get(index_t i) const noexcept { return col_->values[i]; }
+
+private:
+    const detail::column<T>* col_;
+};
+
 /// Journaled view of one attribute column. Reads are plain loads; `set` and `write`
 /// save the old value first when an operation is running on this thread.
 template <attribute_value T>
@@ -172,6 +186,8 @@ public:
     /// Unjournaled mutable access, for set-up outside operations.
     T& raw(index_t i) noexcept { return col_->values[i]; }
 
+    operator attribute_view<T>() const noexcept { return attribute_view<T>(col_); }
+
 private:
     detail::column<T>* col_;
     std::uint32_t id_;
@@ -185,7 +201,7 @@ public:
     attribute_registry& operator=(const attribute_registry& o) {
         if (this == &o) return *this;
         columns_.clear();
-        for (const auto& c : o.columns_) columns_.push_back(c->clone());
+        for (const auto& c : o.columns_) columns_.push_back(c ? c->clone() : nullptr);
         return *this;
     }
     attribute_registry(attribute_registry&&) noexcept = default;
@@ -195,20 +211,44 @@ public:
     attribute_handle<T, K> add(std::string name, std::size_t slots, T dflt = T{}) {
         auto c = std::make_unique<detail::column<T>>(std::move(name), K, dflt);
         c->grow(slots);
+        // A removed column's place is taken first, so adding and removing in a loop (an
+        // algorithm's temporaries, run after run) does not grow the list.
+        for (std::uint32_t i = 0; i < columns_.size(); ++i)
+            if (!columns_[i]) {
+                columns_[i] = std::move(c);
+                return {i};
+            }
         columns_.push_back(std::move(c));
         return {static_cast<std::uint32_t>(columns_.size() - 1)};
     }
 
+    /// Removes a column; its handle (and copies of it) must not be used again.
     template <attribute_value T, simplex_kind K>
-    attribute_accessor<T> access(attribute_handle<T, K> h) const {
+    void remove(attribute_handle<T, K> h) {
+        if (h.column < columns_.size()) columns_[h.column].reset();
+    }
+
+    /// How many columns there are (positions included).
+    std::size_t size() const noexcept {
+        std::size_t n = 0;
+        for (const auto& c : columns_) n += c != nullptr;
+        return n;
+    }
+
+    template <attribute_value T, simplex_kind K>
+    attribute_accessor<T> access(attribute_handle<T, K> h) {
         return {static_cast<detail::column<T>*>(columns_[h.column].get()), h.column};
+    }
+    template <attribute_value T, simplex_kind K>
+    attribute_view<T> view(attribute_handle<T, K> h) const {
+        return attribute_view<T>(static_cast<const detail::column<T>*>(columns_[h.column].get()));
     }
 
     /// Looks a column up by name (set-up code only; not for hot paths).
     template <attribute_value T, simplex_kind K>
     attribute_handle<T, K> find(const std::string& name) const {
         for (std::uint32_t i = 0; i < columns_.size(); ++i)
-            if (columns_[i]->name == name && columns_[i]->kind == K &&
+            if (columns_[i] && columns_[i]->name == name && columns_[i]->kind == K &&
                 dynamic_cast<detail::column<T>*>(columns_[i].get()))
                 return {i};
         return {};
@@ -217,14 +257,14 @@ public:
     /// Makes every column of `kind` hold at least `slots` values.
     void ensure(simplex_kind kind, std::size_t slots) {
         for (auto& c : columns_)
-            if (c->kind == kind && c->count < slots) c->grow(slots);
+            if (c && c->kind == kind && c->count < slots) c->grow(slots);
     }
     /// Resets slot `i` of every column of `kind` to its default (new simplices).
     void reset_slot(simplex_kind kind, index_t i) {
         auto* journal = detail::active_attribute_journal;
         for (std::uint32_t k = 0; k < columns_.size(); ++k) {
+            if (!columns_[k] || columns_[k]->kind != kind) continue;
             auto& c = *columns_[k];
-            if (c.kind != kind) continue;
             std::byte* slot = c.data + std::size_t(i) * c.stride;
             // A recycled slot still holds its old value; journal it so rollback is exact.
             if (journal) journal->save(k, i, slot, c.stride);
@@ -233,9 +273,10 @@ public:
     }
     void remap(simplex_kind kind, const std::vector<index_t>& old_of_new) {
         for (auto& c : columns_)
-            if (c->kind == kind) c->remap(old_of_new);
+            if (c && c->kind == kind) c->remap(old_of_new);
     }
 
+    /// Every column slot; a removed column's is null.
     const std::vector<std::unique_ptr<detail::column_base>>& columns() const noexcept {
         return columns_;
     }

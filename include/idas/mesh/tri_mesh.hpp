@@ -216,13 +216,24 @@ public:
     face_attribute<T> add_face_attribute(std::string name, T dflt = T{}) {
         return attrs_.add<T, simplex_kind::face>(std::move(name), face_slots(), dflt);
     }
+    /// A column's journaled accessor; through a const mesh, a read-only view.
     template <attribute_value T, simplex_kind K>
-    attribute_accessor<T> attribute(attribute_handle<T, K> h) const {
+    attribute_accessor<T> attribute(attribute_handle<T, K> h) {
         return attrs_.access(h);
+    }
+    template <attribute_value T, simplex_kind K>
+    attribute_view<T> attribute(attribute_handle<T, K> h) const {
+        return attrs_.view(h);
+    }
+    /// Removes a column added by the user or an algorithm (not the positions).
+    template <attribute_value T, simplex_kind K>
+    void remove_attribute(attribute_handle<T, K> h) {
+        if (h.column != position_.column) attrs_.remove(h);
     }
 
     vertex_attribute<vec3> position_handle() const noexcept { return position_; }
-    attribute_accessor<vec3> positions() const { return attrs_.access(position_); }
+    attribute_accessor<vec3> positions() { return attrs_.access(position_); }
+    attribute_view<vec3> positions() const { return attrs_.view(position_); }
     const vec3& position(index_t v) const { return positions()[v]; }
 
     const attribute_registry& attributes() const noexcept { return attrs_; }
@@ -378,6 +389,10 @@ bool identical(const tri_mesh<Backend>& a, const tri_mesh<Backend>& b) {
     const auto& cb = b.attributes().columns();
     if (ca.size() != cb.size()) return false;
     for (std::size_t i = 0; i < ca.size(); ++i) {
+        if (!ca[i] || !cb[i]) {
+            if (bool(ca[i]) != bool(cb[i])) return false;
+            continue;
+        }
         const std::size_t slots = ca[i]->kind == simplex_kind::vertex ? a.vertex_slots()
                                   : ca[i]->kind == simplex_kind::face ? a.face_slots()
                                                                       : a.edge_slots();

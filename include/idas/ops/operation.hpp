@@ -16,34 +16,52 @@
 
 namespace idas {
 
-/// Operation kinds are types; `id` is what a scheduler queue entry stores.
-/// `adds_vertices` / `adds_faces`: at most how many simplices one operation creates, so a
-/// parallel worker can tell in advance whether its slot pool can serve it.
+/// Operation kinds are types. Each says what it acts on (the simplex its tuple names: the
+/// executor seeds the default queue and the lock footprint from it) and at most how many
+/// simplices one operation creates (`adds_vertices` / `adds_faces`, faces meaning top
+/// cells), so a parallel worker can tell in advance whether its slot pool can serve it.
+/// `changes_connectivity` (default true) lets a schedule tell moves from edits. A queue
+/// entry stores an operation's position in its spec's `op_list`, so a user adds a kind by
+/// declaring a type like these and an `apply` overload for it (see tests/test_contract.cpp).
 namespace op {
 struct split_edge {
-    static constexpr std::uint8_t id = 0;
+    static constexpr simplex_kind acts_on = simplex_kind::edge;
     static constexpr index_t adds_vertices = 1, adds_faces = 2;
 };
 struct collapse_edge {
-    static constexpr std::uint8_t id = 1;
+    static constexpr simplex_kind acts_on = simplex_kind::edge;
     static constexpr index_t adds_vertices = 0, adds_faces = 0;
 };
 struct swap_edge {
-    static constexpr std::uint8_t id = 2;
+    static constexpr simplex_kind acts_on = simplex_kind::edge;
     static constexpr index_t adds_vertices = 0, adds_faces = 0;
 };
 struct smooth_vertex {
-    static constexpr std::uint8_t id = 3;
+    static constexpr simplex_kind acts_on = simplex_kind::vertex;
     static constexpr index_t adds_vertices = 0, adds_faces = 0;
+    static constexpr bool changes_connectivity = false;
 };
 } // namespace op
 
 template <class Op>
-concept operation_kind = requires {
-    { Op::id } -> std::convertible_to<std::uint8_t>;
+concept operation_kind = std::is_empty_v<Op> && std::default_initializable<Op> && requires {
+    { Op::acts_on } -> std::convertible_to<simplex_kind>;
     { Op::adds_vertices } -> std::convertible_to<index_t>;
     { Op::adds_faces } -> std::convertible_to<index_t>;
 };
+
+/// Whether operations of this kind may change connectivity (a move does not).
+template <operation_kind Op>
+inline constexpr bool changes_connectivity = [] {
+    if constexpr (requires { Op::changes_connectivity; })
+        return bool(Op::changes_connectivity);
+    else
+        return true;
+}();
+
+static_assert(operation_kind<op::split_edge> && operation_kind<op::collapse_edge> &&
+              operation_kind<op::swap_edge> && operation_kind<op::smooth_vertex>);
+static_assert(!changes_connectivity<op::smooth_vertex> && changes_connectivity<op::split_edge>);
 
 /// What an operation created: an anchor tuple (documented per operation) and the faces
 /// (or tets) that are new or changed, each with the old simplex it came from.
@@ -67,6 +85,9 @@ struct op_context {
     // running operation (folded in on commit). Plain integers: each thread owns its context.
     std::int64_t face_delta = 0, vertex_delta = 0;
     std::int64_t pending_faces = 0, pending_vertices = 0;
+    /// The parallel worker this context belongs to (0 in serial runs); the executor also
+    /// tells the backends (detail::worker_index), which deal new slots from its pool.
+    unsigned worker = 0;
 
     op_context() { conn.reserve(256), cells.reserve(64), origins.reserve(64), scratch.reserve(64); }
 };
@@ -179,9 +200,26 @@ concept invariant_for = invariant<I> &&(
         { inv.after(Op{}, m, r, s) } -> std::convertible_to<bool>;
     });
 
+namespace detail {
+/// Says what an invariant type lacks, if anything.
+template <class I>
+constexpr bool check_invariant() {
+    static_assert(requires { typename I::state; },
+                  "idas: an invariant declares its per-operation scratch as a nested type `state` "
+                  "(`struct state {};` if it keeps none)");
+    if constexpr (requires { typename I::state; })
+        static_assert(std::default_initializable<typename I::state>,
+                      "idas: an invariant's `state` must be default-constructible");
+    static_assert(std::copy_constructible<I>, "idas: an invariant must be copy-constructible");
+    return invariant<I>;
+}
+} // namespace detail
+
 /// Compile-time conjunction of invariants, checked in order; the first failure stops.
-template <invariant... Is>
+template <class... Is>
 class invariant_set {
+    static_assert((detail::check_invariant<Is>() && ...));
+
 public:
     using states = std::tuple<typename Is::state...>;
 
@@ -227,7 +265,7 @@ private:
     std::tuple<Is...> invariants_;
 };
 
-template <invariant... Is>
+template <class... Is>
 invariant_set(Is...) -> invariant_set<Is...>;
 
 namespace detail {

@@ -16,22 +16,22 @@ inline constexpr std::size_t max_edge_ring = 24;
 namespace op {
 /// 2-3 swap: the two tets on an interior face become three tets around a new edge.
 struct face_swap_23 {
-    static constexpr std::uint8_t id = 4;
+    static constexpr simplex_kind acts_on = simplex_kind::face;
     static constexpr index_t adds_vertices = 0, adds_faces = 1;
 };
 /// 3-2 swap: the three tets around an interior edge become two tets on a new face.
 struct edge_swap_32 {
-    static constexpr std::uint8_t id = 5;
+    static constexpr simplex_kind acts_on = simplex_kind::edge;
     static constexpr index_t adds_vertices = 0, adds_faces = 0;
 };
 /// 4-4 swap: the four tets around an interior edge become four around the other diagonal.
 struct edge_swap_44 {
-    static constexpr std::uint8_t id = 6;
+    static constexpr simplex_kind acts_on = simplex_kind::edge;
     static constexpr index_t adds_vertices = 0, adds_faces = 0;
 };
 /// Edge removal: the n tets around an interior edge become 2n - 4 tets.
 struct edge_removal {
-    static constexpr std::uint8_t id = 7;
+    static constexpr simplex_kind acts_on = simplex_kind::edge;
     static constexpr index_t adds_vertices = 0, adds_faces = index_t(max_edge_ring - 4);
 };
 } // namespace op

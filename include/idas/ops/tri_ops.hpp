@@ -174,6 +174,28 @@ auto apply(op::smooth_vertex, Mesh& m, const typename Mesh::tuple& t, Spec& s,
     return smooth_vertex(m, t, s, c);
 }
 
+/// Runs a user's operation kind Op under the library's transaction, as the built-in
+/// operations do: invariants' and the spec's `before` on the old mesh, `change()` (which
+/// edits connectivity through the mesh's journaled primitives with `ctx.conn`, records the
+/// new cells with `emit_cell`, sets `ctx.pending_faces` / `ctx.pending_vertices` to the
+/// net change and returns the anchor tuple), then `after` and the invariants on the new
+/// cells; any refusal rolls everything back. Overload `apply(Op, Mesh&, tuple, Spec&,
+/// op_context&)` in Op's namespace to let the executor find it.
+template <operation_kind Op, class Mesh, class Spec, class Change>
+std::optional<op_result<typename Mesh::tuple>> run_operation(Mesh& m,
+                                                             const typename Mesh::tuple& t,
+                                                             Spec& spec, op_context<Mesh>& ctx,
+                                                             Change&& change) {
+    return detail::run_tri_operation<Op>(m, t, spec, ctx, std::forward<Change>(change));
+}
+
+/// Records face f as a new or changed cell of the running operation, seen from its vertex
+/// v, made from face `origin`.
+template <class Mesh>
+void emit_cell(const Mesh& m, op_context<Mesh>& ctx, index_t v, index_t f, index_t origin) {
+    detail::emit(m, ctx, v, f, origin);
+}
+
 /// The calling thread's default operation context for meshes of type Mesh.
 template <class Mesh>
 op_context<Mesh>& thread_context() {

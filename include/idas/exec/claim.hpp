@@ -1,0 +1,76 @@
+// The region an operation claims before it runs in parallel: which vertices, in which
+// order, and how a stale tuple is recognised under the claim. How a vertex is taken (a
+// lock word, a read of the part map) is the lock policy's business: `take(v)` says.
+#pragma once
+
+#include <idas/exec/contract.hpp>
+#include <idas/mesh/cells.hpp>
+
+#include <boost/container/small_vector.hpp>
+
+#include <cstddef>
+
+namespace idas {
+
+enum class claim_result { ok, busy, stale };
+
+/// The vertices a worker holds, released together.
+using held_vertices = boost::container::small_vector<index_t, 64>;
+
+/// The default region of an operation: the vertices of the simplex it acts on (the
+/// tuple's first), then every vertex of their stars. A spec's `lock_region` may call it
+/// for the meshes where its own smaller region does not hold.
+template <operation_kind Op, class Mesh, class Take>
+bool closed_star_region(const Mesh& m, const typename Mesh::tuple& t, Take&& take) {
+    index_t seeds[4] = {t.vid, t.vid, t.vid, t.vid};
+    std::size_t n_seeds = 1;
+    if constexpr (Op::acts_on == simplex_kind::edge) {
+        seeds[1] = m.edge_vertices(t).second, n_seeds = 2;
+    } else if constexpr (Op::acts_on == simplex_kind::face) {
+        if constexpr (detail::has_tets<Mesh>) { // the tuple's vertex is the face's first
+            const auto fv = m.face_vertices(t);
+            seeds[1] = fv[1], seeds[2] = fv[2], n_seeds = 3;
+        } else {
+            const auto& fv = m.face_vertices(t.fid);
+            seeds[1] = fv[0], seeds[2] = fv[1], seeds[3] = fv[2], n_seeds = 4;
+        }
+    } else if constexpr (Op::acts_on == simplex_kind::tet) {
+        const auto tv = cells::vertices(m, cells::of(m, t));
+        for (std::size_t i = 0; i < 4; ++i) seeds[i] = tv[i];
+        n_seeds = 4;
+    }
+    for (std::size_t i = 0; i < n_seeds; ++i)
+        if (!take(seeds[i])) return false;
+    for (std::size_t i = 0; i < n_seeds; ++i)
+        for (index_t c : cells::around(m, seeds[i]))
+            for (index_t w : cells::vertices(m, c))
+                if (!take(w)) return false;
+    return true;
+}
+
+/// Claims the vertices an operation reads or writes: the simplex it acts on first (so
+/// the tuple can be validated under the claim), then every vertex of their stars.
+/// Writers of a cell hold all of its vertices, so holding a vertex freezes its star. A
+/// spec's `lock_region` replaces the stars.
+template <operation_kind Op, class Spec, class Mesh, class Take>
+claim_result claim_footprint(Spec& spec, const Mesh& m, typename Mesh::tuple& t, Take& take) {
+    if (t.vid >= m.vertex_slots() || !take(t.vid)) return claim_result::busy;
+    // Holding the vertex freezes its star, so a vertex entry can be re-anchored in it
+    // (to a cell of that star). Other tuples must name a cell of the held star before
+    // their version is read.
+    if constexpr (Op::acts_on == simplex_kind::vertex) {
+        if (!m.vertex_alive(t.vid)) return claim_result::stale;
+        t = m.tuple_from_vertex(t.vid);
+    } else {
+        bool in_star = false;
+        for (index_t c : cells::around(m, t.vid)) in_star |= c == cells::of(m, t);
+        if (!in_star) return claim_result::stale;
+    }
+    if (!m.is_valid(t)) return claim_result::stale;
+    if constexpr (detail::lock_region_hook<Spec, Mesh, Op>)
+        return spec.lock_region(Op{}, m, t, take) ? claim_result::ok : claim_result::busy;
+    else
+        return closed_star_region<Op>(m, t, take) ? claim_result::ok : claim_result::busy;
+}
+
+} // namespace idas

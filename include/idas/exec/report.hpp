@@ -1,0 +1,46 @@
+// What a run is told (options) and what it tells (live progress, the final report).
+#pragma once
+
+#include <cstdint>
+
+namespace idas {
+
+/// Live counts the stopping criterion sees (`faces` counts top cells: tets on tet meshes).
+/// Exact in serial; in parallel, refreshed every `check_every` successes per worker, so a
+/// run may overshoot by a bounded amount.
+struct progress {
+    std::int64_t faces = 0, vertices = 0;
+    std::uint64_t successes = 0;
+};
+
+struct exec_options {
+    unsigned threads = 1;
+    unsigned max_retry = 8;    // lock failures before an entry goes to the final serial pass
+    unsigned check_every = 32; // successes between `stop` checks per worker (parallel only)
+    unsigned parts_per_thread = 1;
+};
+
+struct run_report {
+    std::uint64_t pushed = 0, popped = 0, purged = 0, stale = 0, skipped = 0, attempted = 0,
+                  succeeded = 0, refused = 0;
+    std::uint64_t lock_failures = 0, deferred_to_serial = 0, stolen = 0;
+    std::uint64_t crossed_parts = 0; // own_part_first: waited for the claiming phase
+    double owner_seconds = 0;        // own_part_first: time of the lock-free phase
+    std::int64_t faces = 0, vertices = 0;
+    unsigned threads = 1;
+    double seconds = 0;
+
+    /// Adds another run's counts (a worker's, or a phase's in a schedule); the live counts
+    /// and thread count are the later run's.
+    run_report& operator+=(const run_report& o) noexcept {
+        pushed += o.pushed, popped += o.popped, purged += o.purged, stale += o.stale;
+        skipped += o.skipped, attempted += o.attempted, succeeded += o.succeeded;
+        refused += o.refused, lock_failures += o.lock_failures;
+        deferred_to_serial += o.deferred_to_serial, stolen += o.stolen;
+        crossed_parts += o.crossed_parts, owner_seconds += o.owner_seconds;
+        seconds += o.seconds;
+        return *this;
+    }
+};
+
+} // namespace idas

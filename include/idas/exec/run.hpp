@@ -1,0 +1,430 @@
+// One run of a schedule: its queues, workers, live counts and the one step every phase
+// takes (claim -> should_process -> attempt -> renew -> push -> count). Lock policies
+// compose their phases from these pieces (exec/lock.hpp); the executor only starts them.
+#pragma once
+
+#include <idas/exec/claim.hpp>
+#include <idas/exec/hooks.hpp>
+#include <idas/exec/op_list.hpp>
+#include <idas/exec/queue.hpp>
+#include <idas/exec/report.hpp>
+#include <idas/exec/workers.hpp>
+#include <idas/mesh/cells.hpp>
+#include <idas/ops/operation.hpp>
+
+#include <tbb/spin_mutex.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <vector>
+
+namespace idas {
+
+/// What became of one step.
+enum class step_outcome { stale, busy, no_room, skipped, refused, succeeded };
+
+/// Where an operation's context comes from in serial runs: the calling thread's, so its
+/// buffers stay warm from one run to the next. Found by argument-dependent lookup.
+template <class Mesh>
+op_context<Mesh>& thread_context();
+
+template <class Spec, class Mesh, class Lock, class Queue, class Partition>
+class schedule_run {
+public:
+    using tuple = typename Mesh::tuple;
+    using entry = queue_entry<tuple>;
+    using queue_type = typename Queue::template type<entry>;
+    using ops = detail::op_list_traits<typename Spec::operations>;
+    using hooks = detail::hooks<Spec, Mesh>;
+
+    /// One worker's share of a run: its part's queue and its operation context. The serial
+    /// phase is a worker too, on the calling thread's context.
+    struct alignas(64) worker {
+        unsigned index = 0;
+        queue_type q;
+        tbb::spin_mutex mutex; // taken by the owner on every access, by thieves to steal
+        std::vector<entry> deferred;
+        std::vector<entry> renewed;
+        op_context<Mesh> own_ctx;
+        op_context<Mesh>* ctx = &own_ctx;
+        run_report report;
+        std::atomic<std::uint64_t> successes{0};
+        std::size_t pushed_since_purge = 0;
+        std::uint64_t since_check = 0;
+    };
+
+    schedule_run(Mesh& m, Spec& spec, const exec_options& o)
+        : m_(m)
+        , spec_(spec)
+        , options_(o) {}
+
+    Mesh& mesh() noexcept { return m_; }
+    Spec& spec() noexcept { return spec_; }
+    const exec_options& options() const noexcept { return options_; }
+    run_report& report() noexcept { return report_; }
+
+    /// Whether this run may use several workers: a parallel lock policy, more than one
+    /// thread, and a backend that deals out new slots if the operations create simplices.
+    bool parallel() const noexcept {
+        constexpr bool can = Lock::parallel && (!ops::adds_simplices || Mesh::parallel_growth);
+        return can && options_.threads > 1;
+    }
+    bool stopped() const noexcept { return stop_.load(std::memory_order_relaxed); }
+
+    // ------------------------------------------------------------ serial ----
+
+    /// Runs every initial entry on the calling thread, exactly: the stopping criterion
+    /// sees every success.
+    void serial_phase() {
+        worker& me = serial_worker();
+        me.q.reserve(3 * cells::slots(m_));
+        auto push = [&](auto op, const tuple& t) {
+            me.q.push(hooks::template make_entry<decltype(op)>(spec_, m_, t));
+            ++me.report.pushed;
+        };
+        hooks::initial(spec_, m_, push);
+        live_ = hooks::counts(m_);
+        drain_serial(me);
+        report_ += me.report;
+        report_.faces = live_.faces, report_.vertices = live_.vertices;
+    }
+
+    // ---------------------------------------------------------- parallel ----
+
+    unsigned parts() const noexcept { return unsigned(workers_.size()); }
+    worker& worker_at(unsigned w) noexcept { return *workers_[w]; }
+    /// The part of every vertex slot (the owner phase moves new vertices into theirs).
+    std::vector<std::uint32_t>& part_map() noexcept { return part_; }
+    Lock& locks() noexcept { return *locks_; }
+
+    /// Sets up the workers (slot pools, partition, initial entries per part), runs
+    /// `phases()`, then gathers the workers' counts and drains what they left on this
+    /// thread. Phases run the workers with `each_worker`.
+    template <class Phases>
+    void parallel_run(Phases&& phases) {
+        start_workers();
+        phases();
+        stop_workers();
+    }
+
+    /// Runs fn(worker&) for every part, on the run's threads.
+    template <class Fn>
+    void each_worker(Fn&& fn) {
+        detail::run_workers(options_.threads, parts(), [&](unsigned w) {
+            worker& me = *workers_[w];
+            me.ctx->worker = w;
+            detail::worker_index = w; // the backends' slot pools
+            fn(me);
+        });
+        detail::worker_index = 0;
+    }
+
+    /// Pops `me`'s next entry under its lock.
+    bool pop(worker& me, entry& e) {
+        tbb::spin_mutex::scoped_lock lk(me.mutex);
+        return me.q.pop(e);
+    }
+    /// Gives an entry to the serial pass that ends the run.
+    void defer_to_final_pass(const entry& e) {
+        tbb::spin_mutex::scoped_lock lk(final_mutex_);
+        final_pass_.push_back(e);
+    }
+
+    /// The one step of every phase. `claimer.claim(Op{}, tuple&)` holds the operation's
+    /// region (or says why not) and `claimer.release()` lets it go; `on_success(Op{},
+    /// result)` runs while the region is still held. Shared: other workers may steal from
+    /// `me`'s queue and read the live counts.
+    template <bool Shared, class Claimer, class OnSuccess>
+    step_outcome step(worker& me, entry& e, Claimer& claimer, OnSuccess&& on_success) {
+        ++me.report.popped;
+        step_outcome outcome = step_outcome::stale;
+        ops::dispatch(e.kind, [&](auto op) {
+            using Op = decltype(op);
+            const claim_result c = claimer.claim(Op{}, e.tuple);
+            if (c != claim_result::ok) {
+                claimer.release();
+                if (c == claim_result::stale) ++me.report.stale;
+                outcome = c == claim_result::stale ? step_outcome::stale : step_outcome::busy;
+                return;
+            }
+            if (!hooks::template should_process<Op>(spec_, m_, e)) {
+                claimer.release();
+                ++me.report.skipped;
+                outcome = step_outcome::skipped;
+                return;
+            }
+            if constexpr (Shared) {
+                if (!m_.has_room(Op::adds_vertices, Op::adds_faces)) {
+                    claimer.release();
+                    outcome = step_outcome::no_room;
+                    return;
+                }
+            }
+            op_context<Mesh>& ctx = *me.ctx;
+            const std::int64_t fd = ctx.face_delta, vd = ctx.vertex_delta;
+            ++me.report.attempted;
+            auto r = apply(Op{}, m_, e.tuple, spec_, ctx);
+            if (!r) {
+                ++me.report.refused;
+                hooks::template refused<Op>(spec_, m_, e.tuple); // the region is still held
+                claimer.release();
+                outcome = step_outcome::refused;
+                return;
+            }
+            ++me.report.succeeded;
+            on_success(Op{}, *r);
+            me.renewed.clear();
+            auto push = [&](auto nop, const tuple& t) {
+                me.renewed.push_back(hooks::template make_entry<decltype(nop)>(spec_, m_, t));
+            };
+            hooks::template renew<Op>(spec_, m_, *r, push);
+            claimer.release();
+            push_renewed<Shared>(me);
+            count_success<Shared>(me, ctx.face_delta - fd, ctx.vertex_delta - vd);
+            outcome = step_outcome::succeeded;
+        });
+        purge_if_bloated<Shared>(me);
+        return outcome;
+    }
+
+    /// The footprint claim of Op (see exec/claim.hpp), taking vertices with `take`.
+    template <class Op, class Take>
+    claim_result claim_footprint(tuple& t, Take& take) {
+        return idas::claim_footprint<Op>(spec_, m_, t, take);
+    }
+
+    /// Claims nothing: the serial phase owns the mesh. A tuple is current, or a vertex
+    /// entry is re-anchored at its vertex, or the entry is stale.
+    struct serial_claimer {
+        const Mesh& m;
+        template <class Op>
+        claim_result claim(Op, tuple& t) const noexcept {
+            if (m.is_valid(t)) return claim_result::ok;
+            if constexpr (Op::acts_on == simplex_kind::vertex) {
+                if (t.vid < m.vertex_slots() && m.vertex_alive(t.vid)) {
+                    t = m.tuple_from_vertex(t.vid);
+                    if (m.is_valid(t)) return claim_result::ok;
+                }
+            }
+            return claim_result::stale;
+        }
+        static constexpr void release() noexcept {}
+    };
+
+private:
+    struct no_action {
+        template <class Op, class R>
+        constexpr void operator()(Op, const R&) const noexcept {}
+    };
+
+    worker& serial_worker() {
+        if (!serial_) {
+            serial_ = std::make_unique<worker>();
+            serial_->ctx = &thread_context<Mesh>();
+        }
+        return *serial_;
+    }
+
+    void drain_serial(worker& me) {
+        if (hooks::should_stop(spec_, live_)) stop_.store(true, std::memory_order_relaxed);
+        serial_claimer claimer{m_};
+        entry e;
+        while (!stopped() && me.q.pop(e)) step<false>(me, e, claimer, no_action{});
+    }
+
+    template <bool Shared>
+    void push_renewed(worker& me) {
+        if constexpr (Shared) {
+            tbb::spin_mutex::scoped_lock lk(me.mutex);
+            for (const auto& x : me.renewed) me.q.push(x);
+        } else {
+            for (const auto& x : me.renewed) me.q.push(x);
+        }
+        me.report.pushed += me.renewed.size();
+        me.pushed_since_purge += me.renewed.size();
+    }
+
+    /// After a success: the live counts and the stopping criterion. Serial: exact, after
+    /// every success. Shared: one atomic add per success (if the spec watches progress),
+    /// the criterion every `check_every` successes and the goal after each.
+    template <bool Shared>
+    void count_success(worker& me, std::int64_t faces, std::int64_t vertices) {
+        if constexpr (!Shared) {
+            ++live_.successes, live_.faces += faces, live_.vertices += vertices;
+            if (hooks::should_stop(spec_, live_)) stop_.store(true, std::memory_order_relaxed);
+        } else if constexpr (hooks::watches_progress) {
+            const std::int64_t delta = pack(faces, vertices);
+            progress now = unpack(live_packed_.fetch_add(delta, std::memory_order_relaxed) + delta);
+            me.successes.store(me.report.succeeded, std::memory_order_relaxed); // owner writes
+            if (hooks::goal_reached(spec_, now)) stop_.store(true, std::memory_order_relaxed);
+            if (++me.since_check >= options_.check_every) {
+                me.since_check = 0;
+                now.successes = shared_progress().successes;
+                if (hooks::should_stop(spec_, now)) stop_.store(true, std::memory_order_relaxed);
+            }
+        }
+    }
+
+    /// Every success makes the entries of its old star stale (about as many as it pushes).
+    /// Popping a stale entry costs a sift-down through a large heap; dropping it in a
+    /// linear sweep costs one version check. So sweep whenever the pushes since the last
+    /// sweep reach half the queue: a sweep then costs O(1) per entry it is likely to drop.
+    template <bool Shared>
+    void purge_if_bloated(worker& me) {
+        if (me.pushed_since_purge <= me.q.size() / 2 + 4096) return;
+        if constexpr (!Shared) {
+            const std::size_t before = me.q.size();
+            me.q.erase_if([&](const entry& x) { return !still_wanted(x); });
+            me.report.purged += before - me.q.size();
+            me.pushed_since_purge = 0;
+        } else if constexpr (cells::has_relaxed_versions<Mesh>) {
+            // Versions may be bumped concurrently by other workers, so they are read with
+            // relaxed atomics; a matching version keeps the entry (conservative). Vertex
+            // entries stay; whether their vertex lives is checked under its claim.
+            tbb::spin_mutex::scoped_lock lk(me.mutex);
+            const std::size_t before = me.q.size();
+            me.q.erase_if([&](const entry& x) {
+                return !ops::acts_on_vertex(x.kind) && cells::version_moved_on(m_, x.tuple);
+            });
+            me.report.purged += before - me.q.size();
+            me.pushed_since_purge = 0;
+        }
+    }
+
+    /// A vertex operation is about its vertex, not the cell its tuple was made in: moving
+    /// a neighbour renews that cell, which must not cancel the entry (a smoothing pass
+    /// would skip two thirds of the vertices). Other entries go stale with their cell.
+    bool still_wanted(const entry& e) const noexcept {
+        if (m_.is_valid(e.tuple)) return true;
+        return ops::acts_on_vertex(e.kind) && e.tuple.vid < m_.vertex_slots() &&
+            m_.vertex_alive(e.tuple.vid);
+    }
+
+    void start_workers() {
+        const unsigned P = options_.threads * std::max(1u, options_.parts_per_thread);
+        m_.set_slot_recycling(false);
+        if constexpr (ops::adds_simplices) {
+            // Room for the growth the spec expects (default: the mesh may double), dealt
+            // out to the workers; an operation that does not fit waits for the serial pass.
+            // Dead slots are dealt first, so passes in a row do not grow the arrays again.
+            const auto [extra_vertices, extra_cells] = hooks::parallel_growth(spec_, m_);
+            m_.begin_parallel(P, extra_vertices, extra_cells);
+        }
+        locks_ = std::make_unique<Lock>(m_.vertex_slots()); // after growth: new vertices too
+        for (unsigned w = 0; w < P; ++w) {
+            workers_.push_back(std::make_unique<worker>());
+            workers_.back()->index = w;
+        }
+        part_ = Partition::assign(m_, P);
+        seed_workers();
+        live_ = hooks::counts(m_);
+        live_packed_.store(pack(live_.faces, live_.vertices), std::memory_order_relaxed);
+        if (hooks::should_stop(spec_, live_)) stop_.store(true, std::memory_order_relaxed);
+    }
+
+    /// Initial entries go to the part of their tuple's vertex.
+    void seed_workers() {
+        const unsigned P = parts();
+        if constexpr (hooks::seeds_per_vertex && !detail::initial_hook<Spec, Mesh>) {
+            // Each worker finds the entries of its own part's vertices.
+            each_worker([&](worker& me) {
+                auto push = [&](auto op, const tuple& t) {
+                    me.q.push(hooks::template make_entry<decltype(op)>(spec_, m_, t));
+                    ++me.report.pushed;
+                };
+                for (index_t v = 0; v < m_.vertex_slots(); ++v)
+                    if (part_[v] == me.index && m_.vertex_alive(v))
+                        hooks::initial_at(spec_, m_, v, push);
+            });
+        } else {
+            std::vector<entry> all;
+            auto push = [&](auto op, const tuple& t) {
+                all.push_back({0.0, t, ops::template id_of<decltype(op)>, 0});
+            };
+            hooks::initial(spec_, m_, push);
+            report_.pushed += all.size();
+            detail::run_workers(options_.threads, P, [&](unsigned w) {
+                auto& q = workers_[w]->q;
+                q.reserve(all.size() / P * 2 + 64);
+                for (entry e : all) {
+                    if (part_[e.tuple.vid] != w) continue;
+                    ops::dispatch(e.kind, [&](auto op) {
+                        e.priority = hooks::template priority<decltype(op)>(spec_, m_, e.tuple);
+                    });
+                    q.push(e);
+                }
+            });
+        }
+    }
+
+    void stop_workers() {
+        if constexpr (!hooks::watches_progress) { // the live counts were not kept: sum them
+            std::int64_t faces = live_.faces, vertices = live_.vertices;
+            for (auto& w : workers_) {
+                faces += w->ctx->face_delta, vertices += w->ctx->vertex_delta;
+                w->successes.store(w->report.succeeded, std::memory_order_relaxed);
+            }
+            live_packed_.store(pack(faces, vertices), std::memory_order_relaxed);
+        }
+        report_.threads = options_.threads;
+        for (auto& w : workers_) report_ += w->report;
+        if constexpr (ops::adds_simplices) m_.end_parallel();
+        m_.set_slot_recycling(true);
+
+        // Final serial pass: entries that kept losing lock races, then anything left.
+        // Leftovers move over as they are; deferred and final-pass entries are pushed anew.
+        live_ = shared_progress();
+        if (!stopped() && !hooks::should_stop(spec_, live_)) {
+            worker& me = serial_worker();
+            for (const auto& x : final_pass_) me.q.push(x);
+            report_.pushed += final_pass_.size();
+            for (auto& w : workers_) {
+                entry x;
+                while (w->q.pop(x)) me.q.push(x);
+                for (const auto& d : w->deferred) me.q.push(d);
+                report_.pushed += w->deferred.size();
+            }
+            drain_serial(me);
+            report_ += me.report;
+        }
+        report_.faces = live_.faces, report_.vertices = live_.vertices;
+    }
+
+    progress shared_progress() const {
+        progress p = unpack(live_packed_.load(std::memory_order_relaxed));
+        for (auto& w : workers_) p.successes += w->successes.load(std::memory_order_relaxed);
+        return p;
+    }
+
+    // Faces in the high 32 bits and vertices in the low 32 of one word: a single contended
+    // read-modify-write per success instead of two.
+    static constexpr std::int64_t pack(std::int64_t faces, std::int64_t vertices) noexcept {
+        return faces * (std::int64_t{1} << 32) + vertices;
+    }
+    static constexpr progress unpack(std::int64_t x) noexcept {
+        const auto vertices =
+            static_cast<std::int64_t>(static_cast<std::int32_t>(static_cast<std::uint32_t>(x)));
+        return {(x - vertices) / (std::int64_t{1} << 32), vertices, 0};
+    }
+    static_assert(unpack(pack(12345, -3)).faces == 12345 && unpack(pack(12345, -3)).vertices == -3);
+    static_assert(unpack(pack(-7, 99)).faces == -7 && unpack(pack(-7, 99)).vertices == 99);
+
+    Mesh& m_;
+    Spec& spec_;
+    exec_options options_;
+    run_report report_;
+    progress live_;                             // serial phases: exact
+    std::atomic<std::int64_t> live_packed_{0}; // parallel phases: packed faces and vertices
+    std::atomic<bool> stop_{false};
+    std::unique_ptr<worker> serial_;
+    std::vector<std::unique_ptr<worker>> workers_;
+    std::vector<std::uint32_t> part_;
+    std::unique_ptr<Lock> locks_;
+    std::vector<entry> final_pass_;
+    tbb::spin_mutex final_mutex_;
+};
+
+} // namespace idas
