@@ -90,7 +90,8 @@ io::surface load_surface(const char* name) {
 
 /// 1-to-4 midpoint subdivision: the new vertices lie on the old surface.
 io::surface subdivide(const io::surface& in) {
-    io::surface out{in.vertices, {}};
+    io::surface out;
+    out.vertices = in.vertices;
     std::map<std::pair<index_t, index_t>, index_t> mid;
     auto midpoint = [&](index_t a, index_t b) {
         const auto key = std::minmax(a, b);

@@ -60,6 +60,56 @@ CLI::App* add_harmonic_command(CLI::App& app, harmonic_arguments& a,
     return c;
 }
 
+/// `--gaussian` above this is refused before allocating: the Delaunay tetrahedralization
+/// of N points has about 6.5 N tets, and 100 million points already need some 100 GB.
+constexpr std::size_t max_gaussian_points = 100'000'000;
+
+/// The result check of harmonic: every tet positively oriented (exact orient3d), every
+/// face shared by at most two tets, and the boundary a closed oriented 2-manifold with
+/// `boundary_chi` (the input hull's). Linear time (one hash of the faces).
+std::optional<std::string> check_harmonic_result(const idas::io::volume& v, long boundary_chi) {
+    const auto& V = v.vertices;
+    struct face_use {
+        idas::tri_indices outward;
+        int count = 0;
+    };
+    struct key_hash {
+        std::size_t operator()(const std::array<index_t, 3>& k) const noexcept {
+            return std::hash<std::uint64_t>{}((std::uint64_t{k[0]} << 42) ^
+                                              (std::uint64_t{k[1]} << 21) ^ k[2]);
+        }
+    };
+    std::unordered_map<std::array<index_t, 3>, face_use, key_hash> faces;
+    faces.reserve(2 * v.tets.size() + 8);
+    for (std::size_t t = 0; t < v.tets.size(); ++t) {
+        const auto& tv = v.tets[t];
+        for (index_t x : tv)
+            if (x >= V.size()) return "tet " + std::to_string(t) + " references a missing vertex";
+        if (idas::orient3d(V[tv[0]], V[tv[1]], V[tv[2]], V[tv[3]]) <= 0)
+            return "tet " + std::to_string(t) + " is flat or inverted";
+        for (const auto& lf : idas::tet_local::face_vertices) {
+            const idas::tri_indices f = {tv[lf[0]], tv[lf[1]], tv[lf[2]]};
+            std::array<index_t, 3> key = f;
+            std::sort(key.begin(), key.end());
+            auto& use = faces[key];
+            use.outward = f;
+            if (++use.count > 2)
+                return "face (" + std::to_string(key[0]) + ", " + std::to_string(key[1]) + ", " +
+                       std::to_string(key[2]) + ") is shared by more than two tets";
+        }
+    }
+    std::vector<idas::tri_indices> boundary;
+    for (const auto& [key, use] : faces)
+        if (use.count == 1) boundary.push_back(use.outward);
+    const auto b = idas::summarize_surface(V.size(), boundary);
+    if (b.problem) return "the boundary is not an oriented 2-manifold: " + *b.problem;
+    if (b.boundary_edges > 0) return "the boundary surface is not closed";
+    if (b.euler_characteristic != boundary_chi)
+        return "the boundary has Euler characteristic " + std::to_string(b.euler_characteristic) +
+               ", the input's has " + std::to_string(boundary_chi);
+    return std::nullopt;
+}
+
 /// The lower-case extension of a path (".msh").
 std::string harmonic_extension(const std::string& path) {
     std::string ext = std::filesystem::path(path).extension().string();
@@ -75,15 +125,19 @@ int run_harmonic(const harmonic_arguments& a) {
     const std::string ext = harmonic_extension(a.out);
     if (ext != ".msh" && ext != ".vtu")
         throw idas::input_error(a.out + ": unknown output extension (expected .msh or .vtu)");
-    if (a.threads == 0) throw idas::input_error("--threads must be at least 1");
+    check_threads(a.threads);
     if (a.gaussian_option->count() > 0 && a.gaussian < 4)
         throw idas::input_error("--gaussian needs at least 4 points");
+    if (a.gaussian > max_gaussian_points)
+        throw idas::input_error("--gaussian must be at most " +
+                                std::to_string(max_gaussian_points) + " points");
 
     const std::vector<idas::vec3> points = a.points.empty()
                                                ? idas::io::gaussian_points(a.gaussian, a.seed)
                                                : idas::io::read_points(a.points);
     const std::string source =
         a.points.empty() ? "--gaussian " + std::to_string(a.gaussian) : a.points;
+    check_range(source, points);
 
     const stopwatch delaunay_clock;
     idas::cgal::delaunay_result dt;
@@ -102,6 +156,8 @@ int run_harmonic(const harmonic_arguments& a) {
     idas::algorithms::harmonic_report r;
     idas::io::volume v;
     // The same run on either tet backend (--backend).
+    // The flips keep the convex hull: its boundary is a sphere before and after.
+    double check_seconds = 0;
     const auto flip = [&]<class Mesh>(Mesh m) {
         before = idas::algorithms::harmonic_statistics(m);
         terminal_progress bar("harmonic");
@@ -116,6 +172,12 @@ int run_harmonic(const harmonic_arguments& a) {
         r = idas::algorithms::harmonic_triangulation<Mesh>::run_observed(m, o, observer);
         after = idas::algorithms::harmonic_statistics(m);
         std::tie(v.vertices, v.tets) = m.to_arrays();
+        const stopwatch check_clock;
+        if (const auto failed = check_harmonic_result(v, 2))
+            throw std::runtime_error("internal error: harmonic produced an invalid mesh (result "
+                                     "check: " +
+                                     *failed + "); nothing was written");
+        check_seconds = check_clock.seconds();
     };
     if (a.backend == "adjacency")
         flip(idas::tet_mesh<idas::backend::adjacency_tet>(dt.vertices, dt.tets));
@@ -149,6 +211,7 @@ int run_harmonic(const harmonic_arguments& a) {
         j["smoothed"] = r.smoothed;
         j["seconds_delaunay"] = delaunay_seconds;
         j["seconds_flipping"] = r.seconds;
+        j["seconds_check"] = check_seconds;
         j["seconds_total"] = total.seconds();
         fmt::print("{}\n", j.dump(2));
     } else {
@@ -158,7 +221,8 @@ int run_harmonic(const harmonic_arguments& a) {
                    a.threads, a.threads == 1 ? "" : "s", r.flips, r.smoothed, r.seconds);
         fmt::print("  tets {} -> {}, mean harmonic index {:.4f} -> {:.4f}\n", before.tets,
                    after.tets, before.mean_index, after.mean_index);
-        fmt::print("{} ({:.3f} s total)\n", a.out, total.seconds());
+        fmt::print("{} (result check {:.3f} s, {:.3f} s total)\n", a.out, check_seconds,
+                   total.seconds());
     }
     return 0;
 #else

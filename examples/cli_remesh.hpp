@@ -9,12 +9,39 @@ struct remesh_arguments {
     bool absolute = false;
     unsigned iterations = 5;
     unsigned threads = 1;
-    double envelope = -1; // relative eps; <0: off
+    double envelope = 0; // relative eps; used only when --envelope is given
     double feature_angle = -1;
     bool keep_boundary = true;
     bool as_json = false, ascii = false;
     std::string backend = "indexed";
+    // The default output limit: about 15 GB while remeshing (connectivity, queues,
+    // attributes and the written copy take some 150 bytes per face).
+    std::uint64_t max_faces = 100'000'000;
+    CLI::Option* envelope_option = nullptr;
+    CLI::Option* feature_angle_option = nullptr;
 };
+
+/// Every option that needs no input is checked before any reading.
+void check_remesh_options(const remesh_arguments& a) {
+    check_threads(a.threads);
+    if (!(a.edge_length > 0) || !std::isfinite(a.edge_length))
+        throw idas::input_error("--edge-length must be a positive number");
+    if (a.envelope_option && a.envelope_option->count() > 0 &&
+        !(a.envelope > 0 && std::isfinite(a.envelope)))
+        throw idas::input_error("--envelope must be a positive number");
+    if (a.feature_angle_option && a.feature_angle_option->count() > 0 &&
+        !(a.feature_angle >= 0 && a.feature_angle <= 180))
+        throw idas::input_error("--feature-angle must be between 0 and 180 degrees");
+}
+
+/// Faces of an isotropic mesh of edge length L on the surface: area / (sqrt(3)/4 L^2).
+double estimated_faces(const idas::io::surface& s, double target_length) {
+    double area = 0;
+    for (const auto& f : s.faces)
+        area += 0.5 * idas::norm(idas::cross(s.vertices[f[1]] - s.vertices[f[0]],
+                                             s.vertices[f[2]] - s.vertices[f[0]]));
+    return area / (std::sqrt(3.0) / 4 * target_length * target_length);
+}
 
 template <class Mesh, class... Extra>
 idas::algorithms::remeshing_report remesh_with(Mesh& m,
@@ -39,9 +66,7 @@ template <class Mesh>
 int run_remesh(const remesh_arguments& a) {
     const stopwatch total;
     idas::io::format_of(a.out); // an unknown output extension fails before any work
-    if (a.threads == 0) throw idas::input_error("--threads must be at least 1");
-    if (!(a.edge_length > 0) || !std::isfinite(a.edge_length))
-        throw idas::input_error("--edge-length must be positive");
+    check_remesh_options(a);
     const idas::io::surface s = load(a.in);
     const mesh_stats in_stats = compute_stats(s);
     std::optional<Mesh> built;
@@ -53,13 +78,25 @@ int run_remesh(const remesh_arguments& a) {
     auto& m = *built;
     idas::algorithms::remeshing_options o;
     o.target_length = a.absolute ? a.edge_length : a.edge_length * in_stats.diagonal;
+    if (!(o.target_length > 0) || !std::isfinite(o.target_length))
+        throw idas::input_error(fmt::format("--edge-length {} gives a target length of {} on {}",
+                                            a.edge_length, o.target_length, a.in));
+    // A tiny length would grow the mesh until memory runs out: refuse it up front.
+    if (const double n = estimated_faces(s, o.target_length); !(n <= double(a.max_faces)))
+        throw idas::input_error(fmt::format(
+            "--edge-length {} (target length {:.6g}) would make about {:.3g} faces on {}, more "
+            "than --max-faces {}",
+            a.edge_length, o.target_length, n, a.in, a.max_faces));
     o.iterations = a.iterations;
     o.preserve_boundary = a.keep_boundary;
     o.feature_angle_deg = a.feature_angle;
 
     idas::algorithms::remeshing_report r;
-    if (a.envelope > 0) {
+    if (a.envelope_option && a.envelope_option->count() > 0) {
 #if IDAS_CLI_HAVE_CGAL
+        if (!std::isfinite(a.envelope * in_stats.diagonal))
+            throw idas::input_error(
+                fmt::format("--envelope {} is too large for {}", a.envelope, a.in));
         const idas::envelope env(s.vertices, s.faces, a.envelope * in_stats.diagonal);
         r = remesh_with(m, o, a.threads, env);
 #else
@@ -71,6 +108,9 @@ int run_remesh(const remesh_arguments& a) {
 
     idas::io::surface result;
     std::tie(result.vertices, result.faces) = m.to_arrays();
+    const stopwatch check_clock;
+    check_result("remesh", idas::summarize_surface(s.vertices.size(), s.faces), result);
+    const double t_check = check_clock.seconds();
     save(a.out, result, a.ascii);
     const mesh_stats out_stats = compute_stats(result);
     if (a.as_json) {
@@ -83,21 +123,22 @@ int run_remesh(const remesh_arguments& a) {
         j["threads"] = a.threads;
         j["backend"] = a.backend;
         j["iterations"] = r.iterations;
-        j["envelope"] = a.envelope > 0 ? json(a.envelope * in_stats.diagonal) : json(nullptr);
+        j["envelope"] =
+            a.envelope_option->count() > 0 ? json(a.envelope * in_stats.diagonal) : json(nullptr);
         j["splits"] = r.splits;
         j["collapses"] = r.collapses;
         j["swaps"] = r.swaps;
         j["smooths"] = r.smooths;
         j["seconds_algorithm"] = r.seconds;
+        j["seconds_check"] = t_check;
         j["seconds_total"] = total.seconds();
         j["output_stats"] = stats_json(out_stats);
         fmt::print("{}\n", j.dump(2));
     } else {
         fmt::print("{}: {} -> {} faces, target edge length {:.6g}, {} iterations on {} thread{} in "
-                   "{:.3f} s "
-                   "({:.3f} s total)\n",
+                   "{:.3f} s (result check {:.3f} s, {:.3f} s total)\n",
                    a.in, s.faces.size(), result.faces.size(), o.target_length, r.iterations,
-                   a.threads, a.threads == 1 ? "" : "s", r.seconds, total.seconds());
+                   a.threads, a.threads == 1 ? "" : "s", r.seconds, t_check, total.seconds());
         fmt::print("  splits {}, collapses {}, swaps {}, smooths {}\n", r.splits, r.collapses,
                    r.swaps, r.smooths);
         fmt::print("{}\n", a.out);

@@ -24,8 +24,8 @@ bool is_vtu_path(const std::string& path) {
     return ext == ".vtu";
 }
 
-/// Reads a tet mesh and refuses what no subcommand can use: no tets, or non-finite
-/// coordinates.
+/// Reads a tet mesh and refuses what no subcommand can use: no tets, or coordinates
+/// outside the supported range.
 idas::io::volume load_tets(const std::string& path) {
     if (is_vtu_path(path))
         throw idas::input_error(path + ": VTU is an output format only; read tets from .msh");
@@ -35,10 +35,7 @@ idas::io::volume load_tets(const std::string& path) {
                                 std::to_string(v.skipped_elements) +
                                 " other elements skipped; surfaces are read from .obj, .off, "
                                 ".ply or .stl)");
-    for (std::size_t i = 0; i < v.vertices.size(); ++i)
-        if (!idas::is_finite(v.vertices[i]))
-            throw idas::input_error(path + ": vertex " + std::to_string(i) +
-                                    " has a non-finite coordinate");
+    check_range(path, v.vertices);
     return v;
 }
 

@@ -18,6 +18,9 @@
 //
 // Exit codes: 0 success; 2 bad input or usage; 1 any other failure. Errors go to stderr
 // and start with "idas: error: "; with --json, stdout holds exactly one JSON object.
+// Every input must lie in idas::geometry_range (mesh/geometry_range.hpp); every edited
+// mesh passes a result check (mesh/surface_check.hpp) before it is written; SIGINT and
+// SIGTERM remove a half-written output (io/atomic_file.hpp).
 #include <idas/algorithms/isotropic_remeshing.hpp>
 #include <idas/algorithms/qslim.hpp>
 #include <idas/algorithms/shortest_edge_collapse.hpp>
@@ -25,6 +28,8 @@
 #include <idas/io/io.hpp>
 #include <idas/io/msh.hpp>
 #include <idas/io/vtu.hpp>
+#include <idas/mesh/geometry_range.hpp>
+#include <idas/mesh/surface_check.hpp>
 #include <idas/mesh/tet_mesh.hpp>
 #include <idas/mesh/tet_quality.hpp>
 #if IDAS_CLI_HAVE_CGAL
@@ -41,6 +46,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <charconv>
 #include <chrono>
@@ -49,13 +55,16 @@
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
+#include <functional>
 #include <limits>
 #include <new>
 #include <numbers>
 #include <optional>
 #include <random>
+#include <stdexcept>
 #include <string>
 #include <type_traits>
+#include <unordered_map>
 #include <vector>
 
 #include <unistd.h> // isatty: the progress bar is drawn on terminals only
@@ -80,6 +89,17 @@ decltype(auto) with_backend(const std::string& backend, Fn&& fn) {
     if (backend == "corner-table")
         return fn(std::type_identity<idas::tri_mesh<idas::backend::corner_table_tri>>{});
     return fn(std::type_identity<idas::tri_mesh<idas::backend::indexed_tri>>{});
+}
+
+/// `--threads` above this is refused: every worker is an OS thread with its own stack and
+/// queue, and far more of them than cores only adds contention (tens of thousands made
+/// thread creation fail). 1024 is well above the cores of any machine idas runs on.
+constexpr unsigned max_threads = 1024;
+
+void check_threads(unsigned threads) {
+    if (threads == 0 || threads > max_threads)
+        throw idas::input_error("--threads must be between 1 and " + std::to_string(max_threads) +
+                                " (got " + std::to_string(threads) + ")");
 }
 
 class stopwatch {
@@ -317,16 +337,46 @@ void print_stats(const mesh_stats& st) {
 
 // ---- input and output ----------------------------------------------------------------------
 
+/// Refuses points outside idas::geometry_range (coordinates that would overflow or
+/// underflow lengths and areas), naming the source.
+void check_range(const std::string& source, const std::vector<vec3>& points) {
+    if (const auto problem = idas::check_geometry_range(points))
+        throw idas::input_error(source + ": " + *problem);
+}
+
 /// Reads a mesh file and refuses what no subcommand can use: no triangles at all, or
-/// non-finite coordinates.
+/// coordinates outside the supported range.
 idas::io::surface load(const std::string& path) {
     idas::io::surface s = idas::io::read_surface(path, idas::io::read_options{});
+    if (s.dropped_faces > 0)
+        std::fprintf(stderr,
+                     "idas: warning: %s: dropped %zu faces whose corners share a position (STL "
+                     "stores positions only, so they weld into a degenerate face)\n",
+                     path.c_str(), s.dropped_faces);
     if (s.faces.empty()) throw idas::input_error(path + ": the file contains no triangles");
-    for (std::size_t v = 0; v < s.vertices.size(); ++v)
-        if (!idas::is_finite(s.vertices[v]))
-            throw idas::input_error(path + ": vertex " + std::to_string(v) +
-                                    " has a non-finite coordinate");
+    check_range(path, s.vertices);
     return s;
+}
+
+/// The result check of the editing commands: what they write must be an oriented
+/// 2-manifold with the input's Euler characteristic and boundary loops. A failure is a bug
+/// in idas, not in the user's file: exit 1, naming the command and the check.
+void check_result(const char* command, const idas::surface_summary& input,
+                  const idas::io::surface& result) {
+    const idas::surface_summary out = idas::summarize_surface(result.vertices.size(), result.faces);
+    std::string failed;
+    if (out.problem)
+        failed = "not an oriented 2-manifold: " + *out.problem;
+    else if (out.euler_characteristic != input.euler_characteristic)
+        failed = "Euler characteristic " + std::to_string(out.euler_characteristic) +
+                 ", the input's is " + std::to_string(input.euler_characteristic);
+    else if (out.boundary_loops != input.boundary_loops)
+        failed = std::to_string(out.boundary_loops) + " boundary loops, the input has " +
+                 std::to_string(input.boundary_loops);
+    if (!failed.empty())
+        throw std::runtime_error(std::string("internal error: ") + command +
+                                 " produced an invalid mesh (result check: " + failed +
+                                 "); nothing was written");
 }
 
 void save(const std::string& path, const idas::io::surface& s, bool ascii) {
@@ -548,11 +598,12 @@ int run_demo(const std::string& in, const std::string& out, bool as_json, std::u
     clock = {};
     if (const auto problem = idas::find_inconsistency(m))
         throw std::runtime_error("the edited mesh is inconsistent: " + *problem);
+    idas::io::surface result;
+    std::tie(result.vertices, result.faces) = m.to_arrays();
+    check_result("demo", idas::summarize_surface(s.vertices.size(), s.faces), result);
     const double t_validate = clock.seconds();
 
     clock = {};
-    idas::io::surface result;
-    std::tie(result.vertices, result.faces) = m.to_arrays();
     save(out, result, ascii);
     const double t_write = clock.seconds();
     const mesh_stats out_stats = compute_stats(result);
@@ -620,13 +671,15 @@ idas::run_report decimate_with(Mesh& m, std::int64_t target, unsigned threads) {
 
 template <class Mesh>
 int run_decimate(const std::string& in, const std::string& out, const std::string& algorithm,
-                 double ratio, std::int64_t faces, unsigned threads, bool as_json, bool ascii,
-                 const std::string& backend) {
+                 std::optional<double> ratio, std::int64_t faces, unsigned threads, bool as_json,
+                 bool ascii, const std::string& backend) {
     using namespace idas::algorithms;
     using mesh_t = Mesh;
     const stopwatch total;
     idas::io::format_of(out); // an unknown output extension fails before any work
-    if (threads == 0) throw idas::input_error("--threads must be at least 1");
+    check_threads(threads);
+    if (ratio && !(*ratio > 0 && *ratio <= 1)) throw idas::input_error("--ratio must be in (0, 1]");
+    if (!ratio && faces < 0) throw idas::input_error("--faces must be non-negative");
     const idas::io::surface s = load(in);
     std::optional<mesh_t> built;
     try {
@@ -636,12 +689,8 @@ int run_decimate(const std::string& in, const std::string& out, const std::strin
     }
     mesh_t& m = *built;
     const auto input_faces = static_cast<std::int64_t>(m.n_faces());
-    std::int64_t target = faces;
-    if (ratio >= 0) {
-        if (!(ratio > 0 && ratio <= 1)) throw idas::input_error("--ratio must be in (0, 1]");
-        target = static_cast<std::int64_t>(std::llround(ratio * double(input_faces)));
-    }
-    if (target < 0) throw idas::input_error("--faces must be non-negative");
+    const std::int64_t target =
+        ratio ? static_cast<std::int64_t>(std::llround(*ratio * double(input_faces))) : faces;
 
     idas::run_report r;
     if (algorithm == "qslim")
@@ -652,6 +701,9 @@ int run_decimate(const std::string& in, const std::string& out, const std::strin
 
     idas::io::surface result;
     std::tie(result.vertices, result.faces) = m.to_arrays();
+    const stopwatch check_clock;
+    check_result("decimate", idas::summarize_surface(s.vertices.size(), s.faces), result);
+    const double t_check = check_clock.seconds();
     save(out, result, ascii);
     const auto output_faces = static_cast<std::int64_t>(result.faces.size());
     if (as_json) {
@@ -666,6 +718,7 @@ int run_decimate(const std::string& in, const std::string& out, const std::strin
         j["output_vertices"] = result.vertices.size();
         j["threads"] = threads;
         j["seconds_algorithm"] = r.seconds;
+        j["seconds_check"] = t_check;
         j["seconds_total"] = total.seconds();
         j["collapses"] = r.succeeded;
         j["refused"] = r.refused;
@@ -675,9 +728,9 @@ int run_decimate(const std::string& in, const std::string& out, const std::strin
         fmt::print("{}\n", j.dump(2));
     } else {
         fmt::print("{}: {} -> {} faces (target {}) by {} on {} thread{} ({} backend) in {:.3f} s "
-                   "({:.3f} s total)\n",
+                   "(result check {:.3f} s, {:.3f} s total)\n",
                    in, input_faces, output_faces, target, algorithm, threads,
-                   threads == 1 ? "" : "s", backend, r.seconds, total.seconds());
+                   threads == 1 ? "" : "s", backend, r.seconds, t_check, total.seconds());
         fmt::print("  collapses {}, refused {}, stale queue entries {}, lock failures {}\n",
                    r.succeeded, r.refused, r.stale, r.lock_failures);
         fmt::print("  written to {}\n", out);
@@ -792,11 +845,18 @@ int run(int argc, char** argv) {
     remesh->add_option("--threads", ra.threads, "worker threads")
         ->check(unsigned_integer)
         ->capture_default_str();
-    remesh->add_option(
+    ra.envelope_option = remesh->add_option(
         "--envelope", ra.envelope,
         "keep every new triangle within EPS (relative to the diagonal) of the input, exactly");
-    remesh->add_option("--feature-angle", ra.feature_angle,
-                       "keep edges sharper than this dihedral angle (degrees)");
+    ra.feature_angle_option =
+        remesh->add_option("--feature-angle", ra.feature_angle,
+                           "keep edges sharper than this dihedral angle (degrees, 0 to 180)");
+    remesh
+        ->add_option("--max-faces", ra.max_faces,
+                     "refuse a target edge length whose output would need more faces than this "
+                     "(estimated from the surface area)")
+        ->check(unsigned_integer)
+        ->capture_default_str();
     remesh->add_flag("!--free-boundary", ra.keep_boundary, "let boundary vertices move and vanish");
     remesh->add_flag("--json", ra.as_json, "print one JSON object instead of text");
     remesh->add_option("--backend", ra.backend, "connectivity backend: indexed or corner-table")
@@ -827,8 +887,9 @@ int run(int argc, char** argv) {
     if (harmonic->parsed()) return run_harmonic(ha);
     if (decimate->parsed())
         return with_backend(backend, [&]<class Mesh>(std::type_identity<Mesh>) {
-            return run_decimate<Mesh>(in, out, algorithm, ratio, target_faces, threads, as_json,
-                                      ascii, backend);
+            return run_decimate<Mesh>(in, out, algorithm,
+                                      ratio_opt->count() > 0 ? std::optional(ratio) : std::nullopt,
+                                      target_faces, threads, as_json, ascii, backend);
         });
     if (convert->parsed() && is_tet_convert(in, out))
         return run_tet_convert(in, out, ascii, tet_convert);
@@ -841,6 +902,8 @@ int run(int argc, char** argv) {
 } // namespace
 
 int main(int argc, char** argv) {
+    // An interrupted run removes its half-written output (the final path is never partial).
+    idas::io::remove_temporary_files_on_signals();
     int code = 0;
     try {
         code = run(argc, argv);

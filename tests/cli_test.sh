@@ -475,6 +475,189 @@ run harmonic "$TMP/never_h.msh" --gaussian 3
 expect_error "harmonic too few points" 2
 if ls "$TMP" | grep -q 'never_h'; then fail "harmonic: output written on bad input"; else ok; fi
 
+# ---- reliability (issue 16) -------------------------------------------------------------------
+
+# Geometry ranges: coordinates whose lengths or areas over- or underflow in double precision
+# are refused by every command, naming the file (mesh/geometry_range.hpp: |x| <= 1e50,
+# bounding box at least 1e-50 wide).
+# scale_off IN OUT M: writes the OFF file IN scaled so its largest coordinate magnitude is M.
+scale_off() {
+    python3 - "$1" "$2" "$3" <<'PY'
+import sys
+lines = open(sys.argv[1]).read().split('\n')
+nv = int(lines[1].split()[0])
+largest = max(abs(float(x)) for i in range(2, 2 + nv) for x in lines[i].split())
+target = float(sys.argv[3])
+for i in range(2, 2 + nv):
+    lines[i] = ' '.join(repr(float(x) / largest * target) for x in lines[i].split())
+open(sys.argv[2], 'w').write('\n'.join(lines))
+PY
+}
+scale_off "$DATA/bunny.off" "$TMP/bunny_huge.off" 9e307
+scale_off "$DATA/bunny.off" "$TMP/bunny_e310.off" 1e-310
+scale_off "$DATA/bunny.off" "$TMP/bunny_e318.off" 1e-318
+tet_obj() { printf 'v 0 0 0\nv %s 0 0\nv 0 %s 0\nv 0 0 %s\nf 1 3 2\nf 1 2 4\nf 2 3 4\nf 1 4 3\n' "$1" "$1" "$1"; }
+tet_obj 1e-320 >"$TMP/tet_tiny.obj"
+tet_obj 1e308 >"$TMP/tet_huge.obj"
+tet_obj 1e-60 >"$TMP/tet_small.obj"
+for bad in bunny_huge.off bunny_e310.off bunny_e318.off tet_tiny.obj tet_huge.obj tet_small.obj; do
+    run info "$TMP/$bad"
+    expect_error "info $bad" 2 "$TMP/$bad: "
+    run info "$TMP/$bad" --json
+    expect_error "info $bad --json" 2 'supported'
+    run convert "$TMP/$bad" "$TMP/never_range.obj"
+    expect_error "convert $bad" 2 "$bad"
+    run decimate "$TMP/$bad" "$TMP/never_range.obj" --ratio 0.5
+    expect_error "decimate $bad" 2 "$bad"
+    for b in indexed corner-table; do
+        run remesh "$TMP/$bad" "$TMP/never_range.obj" --backend "$b"
+        expect_error "remesh $bad --backend $b" 2 "$bad"
+    done
+    run demo "$TMP/$bad" "$TMP/never_range.obj"
+    expect_error "demo $bad" 2 "$bad"
+done
+run info "$TMP/bunny_huge.off"
+expect_error "info bunny_huge.off says why" 2 'beyond the supported range'
+run info "$TMP/tet_tiny.obj"
+expect_error "info tet_tiny.obj says why" 2 'below the supported minimum'
+if [ ! -e "$TMP/never_range.obj" ]; then ok; else fail "geometry range: an output was written"; fi
+printf '0 0 0\n1e300 0 0\n0 1e300 0\n0 0 1e300\n' >"$TMP/huge.xyz"
+run harmonic "$TMP/never_h.msh" --points "$TMP/huge.xyz"
+expect_error "harmonic huge points" 2 'huge.xyz'
+printf '0 0 0\n1e-320 0 0\n0 1e-320 0\n0 0 1e-320\n' >"$TMP/tiny.xyz"
+run harmonic "$TMP/never_h.msh" --points "$TMP/tiny.xyz"
+expect_error "harmonic tiny points" 2 'tiny.xyz'
+printf '$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n4\n1 0 0 0\n2 1e200 0 0\n3 0 1e200 0\n4 0 0 1e200\n$EndNodes\n$Elements\n1\n1 4 0 1 2 3 4\n$EndElements\n' >"$TMP/huge.msh"
+run info "$TMP/huge.msh"
+expect_error "info huge.msh" 2 'huge.msh'
+run convert "$TMP/huge.msh" "$TMP/never_range.vtu"
+expect_error "convert huge.msh" 2 'huge.msh'
+
+# Two triangles on the same three vertices, oppositely oriented: a closed sphere that no
+# operation may turn into a non-manifold (alone, and as a component of bunny.off).
+printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 3 2\n' >"$TMP/pair.obj"
+python3 - "$DATA/bunny.off" "$TMP/bunny_pair.off" <<'PY'
+import sys
+lines = [l for l in open(sys.argv[1]).read().split('\n') if l.strip()]
+nv, nf, _ = map(int, lines[1].split())
+verts, faces = lines[2:2 + nv], lines[2 + nv:2 + nv + nf]
+verts += ['0.2 0 0', '0.25 0 0', '0.2 0.05 0']
+faces += ['3 %d %d %d' % (nv, nv + 1, nv + 2), '3 %d %d %d' % (nv, nv + 2, nv + 1)]
+open(sys.argv[2], 'w').write('OFF\n%d %d 0\n' % (nv + 3, nf + 2) + '\n'.join(verts + faces) + '\n')
+PY
+for b in indexed corner-table; do
+    run remesh "$TMP/pair.obj" "$TMP/pair_$b.obj" --backend "$b" --json
+    expect_rc "remesh pair --backend $b" 0
+    run info "$TMP/pair_$b.obj" --json
+    expect_field "remeshed pair ($b)" 'd["manifold"], d["oriented"], d["closed"], d["euler_characteristic"]' "(True, True, True, 2)"
+    run remesh "$TMP/bunny_pair.off" "$TMP/bunny_pair_$b.obj" --edge-length 0.02 --iterations 2 --backend "$b" --json
+    expect_rc "remesh bunny+pair --backend $b" 0
+    expect_field "remesh bunny+pair --backend $b" "d['seconds_check'] >= 0" True
+    run info "$TMP/bunny_pair_$b.obj" --json
+    expect_field "remeshed bunny+pair ($b)" 'd["manifold"], d["oriented"], d["components"], d["euler_characteristic"]' "(True, True, 2, 4)"
+done
+run decimate "$TMP/bunny_pair.off" "$TMP/bunny_pair_dec.obj" --ratio 0.2 --json
+expect_rc "decimate bunny+pair" 0
+expect_field "decimate bunny+pair" "d['seconds_check'] >= 0" True
+run info "$TMP/bunny_pair_dec.obj" --json
+expect_field "decimated bunny+pair" 'd["manifold"], d["oriented"], d["euler_characteristic"]' "(True, True, 4)"
+run remesh "$DATA/bunny.off" "$TMP/rem_text.obj" --edge-length 0.05 --iterations 1
+if grep -q 'result check' "$TMP/out"; then ok; else fail "remesh (text): result check time missing"; fi
+run harmonic "$TMP/hc.msh" --gaussian 200 --json
+expect_field "harmonic result check" "d['seconds_check'] >= 0" True
+
+# --threads is capped (32767 threads aborted the process).
+for t in 1025 32767 4294967295; do
+    run decimate "$DATA/bunny.off" "$TMP/never_t.obj" --ratio 0.5 --threads "$t"
+    expect_error "decimate --threads $t" 2 'threads'
+    run remesh "$DATA/bunny.off" "$TMP/never_t.obj" --threads "$t"
+    expect_error "remesh --threads $t" 2 'threads'
+    run harmonic "$TMP/never_t.msh" --gaussian 100 --threads "$t"
+    expect_error "harmonic --threads $t" 2 'threads'
+done
+if ls "$TMP" | grep -q 'never_t'; then fail "--threads: output written"; else ok; fi
+
+# An STL that convert wrote reads back, even with a face whose distinct vertices share a
+# position (the reader welds them and drops the face, saying so).
+printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 0\nv 0 0 1\nf 1 2 3\nf 1 4 5\n' >"$TMP/shared.obj"
+for enc in "" "--ascii"; do
+    # shellcheck disable=SC2086
+    run convert "$TMP/shared.obj" "$TMP/shared$enc.stl" $enc
+    expect_rc "convert shared-position face to stl $enc" 0
+    run info "$TMP/shared$enc.stl" --json
+    expect_rc "info shared-position stl $enc" 0
+    expect_field "info shared-position stl $enc" 'd["faces"], d["vertices"]' "(1, 3)"
+    if grep -q 'dropped 1 face' "$TMP/err"; then ok; else fail "info shared-position stl $enc: no warning about the dropped face"; fi
+done
+
+# Absurd options: exit 2, naming the option.
+for v in 0 -1 nan inf; do
+    run remesh "$DATA/bunny.off" "$TMP/never_o.obj" --envelope "$v"
+    expect_error "remesh --envelope $v" 2 'envelope'
+done
+for v in -1 nan 500; do
+    run remesh "$DATA/bunny.off" "$TMP/never_o.obj" --feature-angle "$v"
+    expect_error "remesh --feature-angle $v" 2 'feature-angle'
+done
+for v in -1 nan 0; do
+    run decimate "$DATA/bunny.off" "$TMP/never_o.obj" --ratio "$v"
+    expect_error "decimate --ratio $v" 2 'ratio'
+done
+run decimate "$DATA/bunny.off" "$TMP/never_o.obj" --faces -5
+expect_error "decimate --faces -5" 2 'faces'
+run harmonic "$TMP/never_o.msh" --gaussian 18446744073709551615
+expect_error "harmonic --gaussian 2^64-1" 2 'gaussian'
+run remesh "$DATA/bunny.off" "$TMP/never_o.obj" --edge-length 1e-5
+expect_error "remesh --edge-length 1e-5" 2 'edge-length'
+run remesh "$DATA/bunny.off" "$TMP/never_o.obj" --edge-length 0.02 --max-faces 1000
+expect_error "remesh --max-faces 1000" 2 'max-faces'
+tet_obj 1e40 >"$TMP/tet_1e40.obj"
+run remesh "$TMP/tet_1e40.obj" "$TMP/never_o.obj" --edge-length 1e300
+expect_error "remesh --edge-length 1e300" 2 'edge-length'
+if ls "$TMP" | grep -q 'never_o'; then fail "absurd options: output written"; else ok; fi
+run remesh "$DATA/bunny.off" "$TMP/rem_feat.obj" --edge-length 0.05 --iterations 1 --feature-angle 0
+expect_rc "remesh --feature-angle 0" 0
+
+# SIGTERM during the write removes the temporary file; the output never appears. The
+# output is large (a grid written as ASCII STL) so the write lasts long enough to be caught.
+mkdir -p "$TMP/sig"
+python3 - "$TMP/sig/grid.obj" <<'PY'
+import sys
+n = 400
+out = ['v %d %d 0' % (x, y) for y in range(n) for x in range(n)]
+for y in range(n - 1):
+    for x in range(n - 1):
+        a = y * n + x + 1
+        out.append('f %d %d %d' % (a, a + 1, a + n + 1))
+        out.append('f %d %d %d' % (a, a + n + 1, a + n))
+open(sys.argv[1], 'w').write('\n'.join(out) + '\n')
+PY
+caught=0
+for attempt in 1 2 3 4 5; do
+    "$IDAS" convert "$TMP/sig/grid.obj" "$TMP/sig/out.stl" --ascii >/dev/null 2>&1 &
+    pid=$!
+    seen=0
+    while kill -0 "$pid" 2>/dev/null; do
+        if compgen -G "$TMP/sig/out.stl.tmp.*" >/dev/null; then
+            kill -TERM "$pid"
+            seen=1
+            break
+        fi
+        sleep 0.002
+    done
+    wait "$pid"
+    status=$?
+    if [ "$seen" -eq 1 ]; then
+        caught=1
+        if [ "$status" -eq 143 ]; then ok; else fail "SIGTERM: exit status $status, expected 143"; fi
+        if compgen -G "$TMP/sig/out.stl.tmp.*" >/dev/null; then fail "SIGTERM: temporary file left behind"; else ok; fi
+        if [ ! -e "$TMP/sig/out.stl" ]; then ok; else fail "SIGTERM: output exists"; fi
+        break
+    fi
+    rm -f "$TMP/sig/out.stl"
+done
+if [ "$caught" -eq 1 ]; then ok; else fail "SIGTERM: the write was never caught in progress"; fi
+
 # ---- help ------------------------------------------------------------------------------------
 
 run --help

@@ -884,13 +884,33 @@ TEST_CASE("io: STL non-finite coordinates") {
         {"line 6", "facet 0, corner 2", "non-finite"});
 }
 
-TEST_CASE("io: STL degenerate facet after welding") {
+TEST_CASE("io: STL facets that welding makes degenerate are dropped and counted") {
     std::vector<std::array<vec3, 3>> bad = two_triangles;
     bad[1][2] = bad[1][0];
     const fs::path p = scratch("degenerate.stl", binary_stl("hand made", bad));
-    check_refused(p, {"face 1", "degenerate"});
-    // Unwelded, the corners are distinct vertices and the file is acceptable.
-    CHECK(read_ok(p, {.weld_stl = false}).faces.size() == 2);
+    const surface welded = read_ok(p);
+    CHECK(welded.faces.size() == 1);
+    CHECK(welded.dropped_faces == 1);
+    // Unwelded, the corners are distinct vertices and nothing is dropped.
+    const surface soup = read_ok(p, {.weld_stl = false});
+    CHECK(soup.faces.size() == 2);
+    CHECK(soup.dropped_faces == 0);
+}
+
+TEST_CASE("io: a face with distinct vertices at one position survives an STL round trip") {
+    // Vertices 0 and 3 share a position: valid indexed input, but STL keeps positions only.
+    surface s;
+    s.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 0}, {0, 0, 1}};
+    s.faces = {{0, 1, 2}, {0, 3, 4}};
+    for (const encoding enc : {encoding::binary, encoding::ascii}) {
+        const fs::path p = tmp_file(enc == encoding::binary ? "shared_position_binary.stl"
+                                                            : "shared_position_ascii.stl");
+        write_surface(p, s, {enc});
+        const surface back = read_ok(p);
+        CHECK(back.faces.size() == 1);
+        CHECK(back.dropped_faces == 1);
+        CHECK(back.vertices.size() == 3);
+    }
 }
 
 TEST_CASE("io: STL ascii polygons are fanned or refused, short loops refused") {

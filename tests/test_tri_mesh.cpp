@@ -165,6 +165,53 @@ TEST_CASE_TEMPLATE("swap refuses boundary edges and existing diagonals", Mesh, I
     }
 }
 
+TEST_CASE_TEMPLATE("a double triangle (two faces on the same three vertices) is never edited "
+                   "into a non-manifold",
+                   Mesh, IDAS_TRI_MESHES) {
+    // The smallest closed surface: one triangle glued to its reverse along all three edges.
+    // Every edge has the same opposite vertex on both sides, so a split would join the new
+    // vertex to it twice (an edge of four faces), a swap would make a loop edge, and a
+    // collapse would leave an edge without faces. Alone, and as a component of an
+    // octahedron (where the same must hold while the octahedron stays editable).
+    const std::vector<vec3> octa_v = {{1, 0, 0},  {-1, 0, 0}, {0, 1, 0},
+                                      {0, -1, 0}, {0, 0, 1},  {0, 0, -1}};
+    const std::vector<tri_indices> octa_f = {{0, 2, 4}, {2, 1, 4}, {1, 3, 4}, {3, 0, 4},
+                                             {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5}};
+    for (const bool with_octahedron : {false, true}) {
+        CAPTURE(with_octahedron);
+        std::vector<vec3> V = {{3, 0, 0}, {4, 0, 0}, {3, 1, 0}};
+        std::vector<tri_indices> F = {{0, 1, 2}, {0, 2, 1}};
+        if (with_octahedron) {
+            for (const auto& p : octa_v) V.push_back(p);
+            for (const auto& f : octa_f) F.push_back({f[0] + 3, f[1] + 3, f[2] + 3});
+        }
+        Mesh m(V, F);
+        REQUIRE_FALSE(find_inconsistency(m).has_value());
+        const auto before = test::topology_of(m);
+        CHECK(before.chi == (with_octahedron ? 4 : 2));
+        int pair_edges = 0, octahedron_splits = 0;
+        for (const auto& e : m.get_edges()) {
+            if (!m.is_valid(e)) continue; // made stale by an earlier split
+            const auto [a, b] = m.edge_vertices(e);
+            if (a >= 3 || b >= 3) { // an octahedron edge: still editable
+                octahedron_splits += split_edge(m, e).has_value() ? 1 : 0;
+                continue;
+            }
+            ++pair_edges;
+            CHECK_FALSE(link_condition_holds(m, e));
+            CHECK_FALSE(collapse_edge(m, e));
+            CHECK_FALSE(swap_edge(m, e));
+            CHECK_FALSE(split_edge(m, e));
+            CHECK_FALSE(find_inconsistency(m).has_value());
+        }
+        CHECK(pair_edges == 3);
+        CHECK((octahedron_splits > 0) == with_octahedron);
+        CHECK(m.n_faces() == 2 + (with_octahedron ? 8 : 0) + 2 * octahedron_splits);
+        CHECK_FALSE(find_inconsistency(m).has_value());
+        CHECK(test::topology_of(m) == before);
+    }
+}
+
 namespace {
 struct no_new_vertices_above_plane {
     struct state {};

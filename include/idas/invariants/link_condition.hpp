@@ -49,7 +49,8 @@ bool has_face(const Mesh& m, index_t v, index_t x, index_t y) {
 /// c, d of an interior edge, or c and ω for a boundary edge. The vertex condition is
 /// |lk(a) ∩ lk(b)| = 2; the edge condition (links share no edge) can only fail on the
 /// pair lk(ab) itself: faces acd and bcd both exist (a tetrahedron), or, on the boundary,
-/// ac and bc are both boundary edges (an isolated ear).
+/// ac and bc are both boundary edges (an isolated ear). The smallest closed surfaces are
+/// refused too: a double triangle (abc and bac) has lk(a) ∩ lk(b) = {c}, one vertex.
 template <class Mesh>
 bool link_condition_holds(const Mesh& m, const typename Mesh::tuple& t) {
     const auto [a, b] = m.edge_vertices(t);

@@ -1,10 +1,15 @@
 // All-or-nothing file output: a writer either replaces the target completely or leaves it
 // (and the directory) exactly as it was. Readers therefore never see half-written meshes,
-// even when the writer throws, the disk fills up or the process is killed.
+// even when the writer throws, the disk fills up or the process is killed. A program that
+// calls remove_temporary_files_on_signals() also leaves no temporary file behind when
+// SIGINT or SIGTERM ends it mid-write.
 #pragma once
 
+#include <atomic>
 #include <cerrno>
+#include <csignal>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -13,6 +18,7 @@
 #include <vector>
 
 #include <fcntl.h>
+#include <signal.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -40,11 +46,74 @@ inline mode_t current_umask() {
     return 022;
 }
 
+/// The temporary files being written, where a signal handler can read them: fixed slots,
+/// no allocation, no locks (lock-free atomics and unlink() are async-signal-safe).
+struct pending_temp_files {
+    static constexpr int slots = 8;
+    static constexpr std::size_t path_max = 4096;
+    std::atomic<int> state[slots] = {}; // 0 free, 1 being filled, 2 holds a path
+    char path[slots][path_max] = {};
+};
+inline pending_temp_files pending_temps;
+
+/// Registers a temporary file for the signal handler; -1 if no slot (or too long a path):
+/// that file is then only removed on the ordinary error paths.
+inline int register_temp(const char* path) noexcept {
+    const std::size_t n = std::strlen(path);
+    if (n >= pending_temp_files::path_max) return -1;
+    for (int i = 0; i < pending_temp_files::slots; ++i) {
+        int expected = 0;
+        if (pending_temps.state[i].compare_exchange_strong(expected, 1)) {
+            std::memcpy(pending_temps.path[i], path, n + 1);
+            pending_temps.state[i].store(2);
+            return i;
+        }
+    }
+    return -1;
+}
+
+inline void unregister_temp(int slot) noexcept {
+    if (slot >= 0) pending_temps.state[slot].store(0);
+}
+
+inline void remove_temps_and_reraise(int sig) {
+    const int saved = errno;
+    for (int i = 0; i < pending_temp_files::slots; ++i)
+        if (pending_temps.state[i].load() == 2) ::unlink(pending_temps.path[i]);
+    errno = saved;
+    // The default action (termination by `sig`) once this handler returns, so the parent
+    // sees the usual exit status.
+    std::signal(sig, SIG_DFL);
+    std::raise(sig);
+}
+
+/// Blocks SIGINT and SIGTERM in this thread while alive: between creating the temporary
+/// file and registering it, a signal would leave it behind.
+class signal_block {
+public:
+    signal_block() noexcept {
+        sigset_t set;
+        sigemptyset(&set);
+        sigaddset(&set, SIGINT);
+        sigaddset(&set, SIGTERM);
+        pthread_sigmask(SIG_BLOCK, &set, &old_);
+    }
+    signal_block(const signal_block&) = delete;
+    signal_block& operator=(const signal_block&) = delete;
+    ~signal_block() { pthread_sigmask(SIG_SETMASK, &old_, nullptr); }
+
+private:
+    sigset_t old_;
+};
+
 /// Removes the temporary file unless released: the cleanup runs on every error path.
+/// Holds its signal-handler registration, dropped only after the file is gone or renamed
+/// (a handler running in between unlinks a missing name, which is harmless).
 class temp_file_guard {
 public:
-    explicit temp_file_guard(std::filesystem::path p)
-        : path_(std::move(p)) {}
+    temp_file_guard(std::filesystem::path p, int slot)
+        : path_(std::move(p))
+        , slot_(slot) {}
     temp_file_guard(const temp_file_guard&) = delete;
     temp_file_guard& operator=(const temp_file_guard&) = delete;
     ~temp_file_guard() {
@@ -52,11 +121,13 @@ public:
             std::error_code ignored;
             std::filesystem::remove(path_, ignored);
         }
+        unregister_temp(slot_);
     }
     void release() noexcept { path_.clear(); }
 
 private:
     std::filesystem::path path_;
+    int slot_;
 };
 
 /// Closes a POSIX descriptor on scope exit.
@@ -90,10 +161,17 @@ void write_atomically(const std::filesystem::path& target, F&& write_to_ostream)
     std::vector<char> name(pattern.begin(), pattern.end());
     name.push_back('\0');
 
-    const detail::fd_guard fd(::mkstemp(name.data()));
-    if (fd.get() < 0) detail::throw_write_error(target, errno, "cannot create temporary file");
+    int fd_value = -1, slot = -1, err = 0;
+    {
+        const detail::signal_block blocked;
+        fd_value = ::mkstemp(name.data());
+        err = errno;
+        if (fd_value >= 0) slot = detail::register_temp(name.data());
+    }
+    const detail::fd_guard fd(fd_value);
+    if (fd.get() < 0) detail::throw_write_error(target, err, "cannot create temporary file");
     const fs::path temp(name.data());
-    detail::temp_file_guard cleanup(temp);
+    detail::temp_file_guard cleanup(temp, slot);
 
     // mkstemp creates the file private (0600); give it the permissions a plain create
     // would have produced, or keep those of the file being replaced.
@@ -122,6 +200,20 @@ void write_atomically(const std::filesystem::path& target, F&& write_to_ostream)
     fs::rename(temp, target, ec);
     if (ec) detail::throw_write_error(target, ec.value(), "cannot rename temporary file");
     cleanup.release();
+}
+
+/// Installs handlers for SIGINT and SIGTERM that remove the temporary files of writes in
+/// progress, then end the process by the same signal. Signals the process ignores stay
+/// ignored. For programs (the idas tool); a library never installs handlers by itself.
+inline void remove_temporary_files_on_signals() {
+    for (const int sig : {SIGINT, SIGTERM}) {
+        struct sigaction current {};
+        if (::sigaction(sig, nullptr, &current) != 0 || current.sa_handler == SIG_IGN) continue;
+        struct sigaction action {};
+        action.sa_handler = detail::remove_temps_and_reraise;
+        sigemptyset(&action.sa_mask);
+        ::sigaction(sig, &action, nullptr);
+    }
 }
 
 } // namespace idas::io

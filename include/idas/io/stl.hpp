@@ -1,6 +1,9 @@
 // STL, ASCII and binary. STL stores each triangle's corners separately in single
 // precision (ASCII values are rounded to float too); the reader welds corners with exactly
 // equal coordinates into shared vertices (read_options::weld_stl), giving an indexed mesh.
+// A facet whose corners weld together is dropped and counted (surface::dropped_faces):
+// an indexed mesh may hold a face of distinct vertices at one position, which STL can
+// only store as such a facet, so refusing it would refuse what idas itself wrote.
 #pragma once
 
 #include "idas/io/atomic_file.hpp"
@@ -13,6 +16,7 @@
 #include <filesystem>
 #include <limits>
 #include <ostream>
+#include <span>
 #include <string>
 #include <string_view>
 #include <unordered_map>
@@ -110,6 +114,31 @@ inline bool iequals(std::string_view a, std::string_view b) noexcept {
     return true;
 }
 
+/// True if welding made the facet repeat a vertex: it is dropped (see the file comment).
+inline bool drop_welded_facet(surface& s, std::span<const index_t> poly,
+                              const read_options& options) {
+    if (!options.weld_stl) return false;
+    for (std::size_t i = 0; i < poly.size(); ++i)
+        for (std::size_t j = i + 1; j < poly.size(); ++j)
+            if (poly[i] == poly[j]) return ++s.dropped_faces, true;
+    return false;
+}
+
+/// Removes the vertices only dropped facets used (welded STL vertices come from corners,
+/// so every other vertex is referenced), keeping the order of the rest.
+inline void remove_unreferenced_vertices(surface& s) {
+    if (s.dropped_faces == 0) return;
+    std::vector<index_t> remap(s.vertices.size(), invalid_index);
+    for (const tri_indices& f : s.faces)
+        for (index_t v : f) remap[v] = 0;
+    index_t next = 0;
+    for (std::size_t v = 0; v < s.vertices.size(); ++v)
+        if (remap[v] == 0) s.vertices[next] = s.vertices[v], remap[v] = next++;
+    s.vertices.resize(next);
+    for (tri_indices& f : s.faces)
+        for (index_t& v : f) v = remap[v];
+}
+
 inline surface parse_binary_stl(std::string_view data, std::string_view source,
                                 const read_options& options) {
     const std::size_t count = stl_load_u32(data.data() + 80);
@@ -133,8 +162,10 @@ inline surface parse_binary_stl(std::string_view data, std::string_view source,
                           " has a non-finite coordinate");
             poly[static_cast<std::size_t>(c)] = vertices.add(p);
         }
-        add_polygon(s.faces, poly, f, options, 0, fail_here);
+        if (!drop_welded_facet(s, poly, options))
+            add_polygon(s.faces, poly, f, options, 0, fail_here);
     }
+    remove_unreferenced_vertices(s);
     return s;
 }
 
@@ -208,9 +239,11 @@ inline surface parse_ascii_stl(std::string_view data, std::string_view source,
             fail_here("facet " + std::to_string(facet) +
                       ": expected 'vertex' or 'endloop', found " + quoted(next));
         expect("endfacet");
-        add_polygon(s.faces, poly, facet, options, 0, fail_here);
+        if (poly.size() < 3 || !drop_welded_facet(s, poly, options))
+            add_polygon(s.faces, poly, facet, options, 0, fail_here);
         ++facet;
     }
+    remove_unreferenced_vertices(s);
     return s;
 }
 

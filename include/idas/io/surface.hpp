@@ -24,6 +24,10 @@ namespace idas::io {
 struct surface {
     std::vector<vec3> vertices;
     std::vector<tri_indices> faces;
+    /// Faces the reader left out: STL facets whose corners weld into fewer than three
+    /// vertices (STL stores positions only, so such a facet cannot be told apart from a
+    /// degenerate one). Other readers refuse degenerate faces instead.
+    std::size_t dropped_faces = 0;
 };
 
 struct read_options {

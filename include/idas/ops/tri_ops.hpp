@@ -55,11 +55,15 @@ inline tri_indices replaced(tri_indices f, index_t from, index_t to) {
 } // namespace detail
 
 /// Splits the tuple's edge ab at a new vertex m. New faces: the (up to) four faces
-/// around m. Anchor: m, on the edge (a, m). `after` must set m's position.
+/// around m. Anchor: m, on the edge (a, m). `after` must set m's position. Refused when
+/// both faces of ab have the same opposite vertex c (a double triangle, two faces on the
+/// same three vertices): m would be joined to c twice, making m-c an edge of four faces.
 template <class Mesh, class Spec = no_spec>
 std::optional<op_result<typename Mesh::tuple>> split_edge(Mesh& m, const typename Mesh::tuple& t,
                                                           Spec&& spec, op_context<Mesh>& ctx) {
     if (!m.is_valid(t)) return std::nullopt;
+    if (const auto g = m.switch_face(t); g && m.opposite_vertex(t) == m.opposite_vertex(*g))
+        return std::nullopt;
     return detail::run_tri_operation<op::split_edge>(m, t, spec, ctx, [&] {
         const auto [a, b] = m.edge_vertices(t);
         const auto g = m.switch_face(t);
@@ -119,7 +123,7 @@ std::optional<op_result<typename Mesh::tuple>> swap_edge(Mesh& m, const typename
     const auto g = m.switch_face(t);
     if (!g) return std::nullopt;
     const index_t c = m.opposite_vertex(t), d = m.opposite_vertex(*g);
-    if (c == d) return std::nullopt;
+    if (c == d) return std::nullopt; // a double triangle: cd would be a loop
     for (index_t f : m.vertex_faces(c)) {
         const auto& fv = m.face_vertices(f);
         if (fv[0] == d || fv[1] == d || fv[2] == d) return std::nullopt; // cd exists
