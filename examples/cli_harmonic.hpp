@@ -161,7 +161,8 @@ int run_harmonic(const harmonic_arguments& a) {
     const auto flip = [&]<class Mesh>(Mesh m) {
         before = idas::algorithms::harmonic_statistics(m);
         terminal_progress bar("harmonic");
-        const unsigned phases = o.mode == idas::algorithms::harmonic_mode::reduced ? 1 : 1 + 2 * o.rounds;
+        const unsigned phases =
+            o.mode == idas::algorithms::harmonic_mode::reduced ? 1 : 1 + 2 * o.rounds;
         unsigned ran = 0;
         auto observer = [&](std::size_t phase, unsigned round, const idas::run_report& pr) {
             static constexpr const char* names[] = {"3-2 flips", "smoothing", "seeded flips"};

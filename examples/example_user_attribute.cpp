@@ -31,7 +31,8 @@ struct min_angle_invariant {
     bool after(Op, const mesh& m, const idas::op_result<tuple>& r, state&) const {
         for (const auto& c : r.cells) {
             const auto& f = m.face_vertices(c.fid);
-            const auto a = idas::triangle_angles(m.position(f[0]), m.position(f[1]), m.position(f[2]));
+            const auto a =
+                idas::triangle_angles(m.position(f[0]), m.position(f[1]), m.position(f[2]));
             if (std::min({a[0], a[1], a[2]}) < limit) return false;
         }
         return true;
@@ -40,8 +41,8 @@ struct min_angle_invariant {
 
 struct refine_with_field {
     using operations = idas::op_list<op::split_edge>;
-    double longest = 0;                           // split edges longer than this
-    idas::vertex_attribute<double> field;         // A: the user's scalar per vertex
+    double longest = 0;                   // split edges longer than this
+    idas::vertex_attribute<double> field; // A: the user's scalar per vertex
     min_angle_invariant angles;
 
     auto invariants() const { return idas::invariant_set<min_angle_invariant>{angles}; }
@@ -95,7 +96,8 @@ int main(int argc, char** argv) {
         idas::vec3 bmin = m.position(0), bmax = bmin;
         for (const auto& p : input.vertices) {
             lo = std::min(lo, p.z);
-            for (int i = 0; i < 3; ++i) bmin[i] = std::min(bmin[i], p[i]), bmax[i] = std::max(bmax[i], p[i]);
+            for (int i = 0; i < 3; ++i)
+                bmin[i] = std::min(bmin[i], p[i]), bmax[i] = std::max(bmax[i], p[i]);
         }
         diag2 = idas::squared_norm(bmax - bmin);
 

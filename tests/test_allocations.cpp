@@ -2,6 +2,8 @@
 // a counting global allocator (active for the whole test binary, counted only here).
 #include "test_support.hpp"
 
+#include <idas/algorithms/qslim.hpp>
+
 // The replacement operators below pair malloc with free; g++ cannot see that once inlined.
 #pragma GCC diagnostic ignored "-Wmismatched-new-delete"
 
@@ -111,4 +113,22 @@ TEST_CASE_TEMPLATE("operations and rollbacks allocate nothing in steady state", 
     CHECK_MESSAGE(used == 0,
                   used << " allocations in " << done + done_with_failures << " operations");
     CHECK_FALSE(find_inconsistency(m).has_value());
+}
+
+TEST_CASE_TEMPLATE("the executor allocates nothing per operation", Mesh, IDAS_TRI_MESHES) {
+    // Two serial QSlim runs that differ by tens of thousands of collapses (every step:
+    // claim, hooks, attempt, renew, push, count) differ by a handful of allocations: the
+    // run's set-up and the geometric growth of a few buffers.
+    auto allocations_to = [](double ratio, std::uint64_t& collapses) {
+        auto m = idas::test::load<Mesh>("bunny.obj");
+        algorithms::qslim_spec spec;
+        spec.target_faces = std::int64_t(ratio * double(m.n_faces()));
+        const long before = allocations();
+        collapses = algorithms::qslim<Mesh, lock::none>::run(m, spec).succeeded;
+        return allocations() - before;
+    };
+    std::uint64_t few = 0, many = 0;
+    const long a = allocations_to(0.9, few), b = allocations_to(0.1, many);
+    CHECK(many > few + 20000);
+    CHECK(b - a < 64);
 }

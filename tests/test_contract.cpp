@@ -51,9 +51,13 @@ static_assert(spec_for<user_ops::split_largest_faces, tri_mesh<>>);
 
 // A const mesh hands out read-only attributes: `before` cannot write.
 template <class M>
-concept writes_attributes = requires(M& m, vertex_attribute<int> h) { m.attribute(h).set(0, 1); };
+concept writes_attributes = requires(M& m, vertex_attribute<int> h) {
+    m.attribute(h).set(0, 1);
+};
 template <class M>
-concept writes_positions = requires(M& m) { m.positions().set(0, vec3{}); };
+concept writes_positions = requires(M& m) {
+    m.positions().set(0, vec3{});
+};
 static_assert(!writes_attributes<const tri_mesh<>> && !writes_positions<const tri_mesh<>>);
 static_assert(writes_attributes<tri_mesh<>> && writes_positions<tri_mesh<>>);
 static_assert(!writes_positions<const tet_mesh<>> && writes_positions<tet_mesh<>>);
@@ -80,12 +84,14 @@ struct finishing_qslim : algorithms::qslim_spec {
 
 } // namespace
 
-TEST_CASE_TEMPLATE("contract: an algorithm knows its spec, and a decorated spec's hooks run",
-                   Mesh, IDAS_TRI_MESHES) {
+TEST_CASE_TEMPLATE("contract: an algorithm knows its spec, and a decorated spec's hooks run", Mesh,
+                   IDAS_TRI_MESHES) {
     using algorithm = algorithms::qslim<Mesh, lock::none>;
     static_assert(std::is_same_v<typename algorithm::spec_type, algorithms::qslim_spec>);
-    using decorated = typename algorithm::template with_spec<counting_stops<algorithms::qslim_spec>>;
-    static_assert(std::is_same_v<typename decorated::spec_type, counting_stops<algorithms::qslim_spec>>);
+    using decorated =
+        typename algorithm::template with_spec<counting_stops<algorithms::qslim_spec>>;
+    static_assert(
+        std::is_same_v<typename decorated::spec_type, counting_stops<algorithms::qslim_spec>>);
 
     auto m = test::load<Mesh>("bunny.off");
     counting_stops<algorithms::qslim_spec> spec;
@@ -94,7 +100,9 @@ TEST_CASE_TEMPLATE("contract: an algorithm knows its spec, and a decorated spec'
     // Serial runs ask after every success (the CLI's progress bar was never asked: 0 calls).
     CHECK(spec.stops >= r.succeeded);
     CHECK(r.succeeded > 0);
-    CHECK(std::int64_t(m.n_faces()) == spec.target_faces);
+    // A collapse removes two faces: an odd distance to the target ends one below it.
+    CHECK(std::int64_t(m.n_faces()) <= spec.target_faces);
+    CHECK(std::int64_t(m.n_faces()) >= spec.target_faces - 1);
 }
 
 TEST_CASE_TEMPLATE("contract: a user's operation kind runs on the executor", Mesh,
@@ -128,7 +136,8 @@ TEST_CASE_TEMPLATE("contract: algorithms remove their own attribute columns", Me
     algorithms::isotropic_remeshing<Mesh, lock::none>::run(m, o); // a second run: no eight
     CHECK(m.attributes().size() == columns);
 
-    using algorithm = typename algorithms::qslim<Mesh, lock::none>::template with_spec<finishing_qslim>;
+    using algorithm =
+        typename algorithms::qslim<Mesh, lock::none>::template with_spec<finishing_qslim>;
     finishing_qslim spec;
     spec.target_faces = std::int64_t(m.n_faces()) / 2;
     algorithm::run(m, spec);

@@ -43,7 +43,8 @@ struct split_largest_faces {
     template <class Mesh>
     double priority(split_face, const Mesh& m, const typename Mesh::tuple& t) const {
         const auto& f = m.face_vertices(t.fid);
-        return -norm(cross(m.position(f[1]) - m.position(f[0]), m.position(f[2]) - m.position(f[0])));
+        return -norm(
+            cross(m.position(f[1]) - m.position(f[0]), m.position(f[2]) - m.position(f[0])));
     }
     template <class Mesh>
     std::optional<vec3> before(split_face, const Mesh& m, const typename Mesh::tuple& t) const {
@@ -56,7 +57,8 @@ struct split_largest_faces {
         return true;
     }
     template <class Mesh, class Push>
-    void renew(split_face, const Mesh&, const op_result<typename Mesh::tuple>& r, Push& push) const {
+    void renew(split_face, const Mesh&, const op_result<typename Mesh::tuple>& r,
+               Push& push) const {
         for (const auto& c : r.cells) push(split_face{}, c);
     }
     bool stop(const progress& p) const { return p.faces >= target_faces; }

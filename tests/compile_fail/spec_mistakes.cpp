@@ -27,14 +27,15 @@ struct min_angle {
     template <class Op>
     bool after(Op, const mesh& m, const op_result<mesh::tuple>& r, auto&) const {
 #endif
-        for (const auto& c : r.cells) {
-            const auto& f = m.face_vertices(c.fid);
-            const auto a = triangle_angles(m.position(f[0]), m.position(f[1]), m.position(f[2]));
-            if (std::min({a[0], a[1], a[2]}) < limit) return false;
-        }
-        return true;
-    }
-};
+        for (const auto& c
+             : r.cells) {
+            const auto & f = m.face_vertices(c.fid);
+    const auto a = triangle_angles(m.position(f[0]), m.position(f[1]), m.position(f[2]));
+    if (std::min({a[0], a[1], a[2]}) < limit) return false;
+} return true;
+} // namespace user
+}
+;
 
 struct wrong_cache {};
 
@@ -72,14 +73,15 @@ struct split_spec {
         return true;
     }
 #else
-    bool after(op::split_edge, Mesh& m, const op_result<typename Mesh::tuple>& r,
-               const vec3& p) const {
-        m.positions().set(r.anchor.vid, p);
-        return true;
-    }
+bool after(op::split_edge, Mesh& m, const op_result<typename Mesh::tuple>& r, const vec3& p) const {
+    m.positions().set(r.anchor.vid, p);
+    return true;
+}
 #endif
 #if MISTAKE != 5
-    auto invariants() const { return invariant_set<min_angle>{}; }
+    auto invariants() const {
+        return invariant_set<min_angle>{};
+    }
 #endif
 };
 

@@ -89,7 +89,8 @@ TEST_CASE_TEMPLATE("parallel: a user's operation kind runs on 4 threads", Mesh, 
     spec.target_faces = std::int64_t(faces) + 20000;
     exec_options o;
     o.threads = 4;
-    const auto r = executor<user_ops::split_largest_faces, Mesh, lock::vertex_try_lock>::run(m, spec, o);
+    const auto r =
+        executor<user_ops::split_largest_faces, Mesh, lock::vertex_try_lock>::run(m, spec, o);
     CHECK(r.threads == 4);
     // Parallel workers stop right after the success that reaches the goal: one each at most.
     CHECK(m.n_faces() >= faces + 20000);

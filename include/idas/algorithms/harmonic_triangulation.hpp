@@ -713,10 +713,11 @@ struct harmonic_report {
 /// costs more than they save.
 using harmonic_reduced_schedule =
     schedule::sequence<schedule::phase<harmonic_flip_spec<harmonic_mode::reduced>>>;
-using harmonic_complete_schedule = schedule::sequence<
-    schedule::phase<harmonic_flip_spec<harmonic_mode::reduced>>,
-    schedule::repeat_while_busy<schedule::phase<harmonic_smooth_spec>,
-                                schedule::phase<harmonic_seeded_flip_spec, schedule::default_queue, 1>>>;
+using harmonic_complete_schedule =
+    schedule::sequence<schedule::phase<harmonic_flip_spec<harmonic_mode::reduced>>,
+                       schedule::repeat_while_busy<
+                           schedule::phase<harmonic_smooth_spec>,
+                           schedule::phase<harmonic_seeded_flip_spec, schedule::default_queue, 1>>>;
 
 /// The whole algorithm on one mesh type and lock policy. Its phases run until their queues
 /// are empty, in no particular order, so each part's own operations can all go first:

@@ -486,7 +486,6 @@ struct remesh_smooth_spec : detail::with_invariants<Extra...> {
     }
 };
 
-
 struct remeshing_report {
     unsigned iterations = 0;
     std::uint64_t splits = 0, collapses = 0, swaps = 0, smooths = 0;
@@ -523,10 +522,14 @@ struct isotropic_remeshing {
                                          Extra... extra) {
         remeshing_state s;
         s.L = o.target_length;
-        const temporary_attribute frozen(m, m.template add_vertex_attribute<std::uint8_t>("remesh_frozen", 0));
-        const temporary_attribute feature(m, m.template add_vertex_attribute<std::uint8_t>("remesh_feature", 0));
-        const temporary_attribute boundary(m, m.template add_vertex_attribute<std::uint8_t>("remesh_boundary", 0));
-        const temporary_attribute smoothed(m, m.template add_vertex_attribute<std::uint32_t>("remesh_smoothed", 0));
+        const temporary_attribute frozen(
+            m, m.template add_vertex_attribute<std::uint8_t>("remesh_frozen", 0));
+        const temporary_attribute feature(
+            m, m.template add_vertex_attribute<std::uint8_t>("remesh_feature", 0));
+        const temporary_attribute boundary(
+            m, m.template add_vertex_attribute<std::uint8_t>("remesh_boundary", 0));
+        const temporary_attribute smoothed(
+            m, m.template add_vertex_attribute<std::uint32_t>("remesh_smoothed", 0));
         s.frozen = frozen.handle, s.feature = feature.handle, s.boundary = boundary.handle;
         s.smoothed = smoothed.handle;
         // Only smoothing projects onto the input, so with several threads its tree is
@@ -583,7 +586,9 @@ private:
     }
 };
 
-static_assert(spec_for<remesh_split_spec<>, tri_mesh<>> && spec_for<remesh_collapse_spec<>, tri_mesh<>> &&
-              spec_for<remesh_swap_spec<>, tri_mesh<>> && spec_for<remesh_smooth_spec<>, tri_mesh<>>);
+static_assert(spec_for<remesh_split_spec<>, tri_mesh<>> &&
+              spec_for<remesh_collapse_spec<>, tri_mesh<>> &&
+              spec_for<remesh_swap_spec<>, tri_mesh<>> &&
+              spec_for<remesh_smooth_spec<>, tri_mesh<>>);
 
 } // namespace idas::algorithms

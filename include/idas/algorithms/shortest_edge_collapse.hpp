@@ -61,6 +61,7 @@ template <bool NoNormalFlip = true, class Mesh = tri_mesh<>, class Lock = lock::
 using shortest_edge_collapse =
     executor<shortest_edge_collapse_spec<NoNormalFlip>, Mesh, Lock, Queue, Partition>;
 
-static_assert(spec_for<shortest_edge_collapse_spec<true>, tri_mesh<>> && spec_for<shortest_edge_collapse_spec<false>, tri_mesh<>>);
+static_assert(spec_for<shortest_edge_collapse_spec<true>, tri_mesh<>> &&
+              spec_for<shortest_edge_collapse_spec<false>, tri_mesh<>>);
 
 } // namespace idas::algorithms

@@ -82,8 +82,9 @@ struct hook_name_probe : T, hook_names {};
 
 #define IDAS_DECLARES(name)                                                                        \
     template <class T>                                                                             \
-    concept declares_##name = std::is_class_v<T> && !std::is_final_v<T> &&                         \
-        !requires { &hook_name_probe<T>::name; };
+    concept declares_##name = std::is_class_v<T> && !std::is_final_v<T> && !requires {             \
+        &hook_name_probe<T>::name;                                                                 \
+    };
 IDAS_DECLARES(priority)
 IDAS_DECLARES(before)
 IDAS_DECLARES(after)
@@ -135,24 +136,25 @@ requires before_hook<S, M, Op>
 struct cache_of<S, M, Op> {
     using R = decltype(std::declval<S&>().before(Op{}, std::declval<const M&>(),
                                                  std::declval<const typename M::tuple&>()));
-    using type = typename std::conditional_t<is_optional<R>::value, R, std::optional<no_cache>>::
-        value_type;
+    using type =
+        typename std::conditional_t<is_optional<R>::value, R, std::optional<no_cache>>::value_type;
 };
 template <class S, class M, class Op>
 using cache_t = typename cache_of<S, M, Op>::type;
 
 template <class S, class M, class Op>
 concept before_returns_bool_or_optional =
-    !before_hook<S, M, Op> || is_optional<decltype(std::declval<S&>().before(
-                                  Op{}, std::declval<const M&>(),
-                                  std::declval<const typename M::tuple&>()))>::value ||
+    !before_hook<S, M, Op> ||
+    is_optional<decltype(std::declval<S&>().before(
+        Op{}, std::declval<const M&>(), std::declval<const typename M::tuple&>()))>::value ||
     std::convertible_to<decltype(std::declval<S&>().before(
-                            Op{}, std::declval<const M&>(), std::declval<const typename M::tuple&>())),
+                            Op{}, std::declval<const M&>(),
+                            std::declval<const typename M::tuple&>())),
                         bool>;
 
 template <class S, class M, class Op>
-concept after_hook_with_cache =
-    requires(S& s, M& m, const op_result<typename M::tuple>& r, cache_t<S, M, Op>& c) {
+concept after_hook_with_cache = requires(S& s, M& m, const op_result<typename M::tuple>& r,
+                                         cache_t<S, M, Op>& c) {
     { s.after(Op{}, m, r, c) } -> std::convertible_to<bool>;
 };
 template <class S, class M, class Op>
@@ -168,8 +170,7 @@ concept renew_hook = requires(S& s, const M& m, const op_result<typename M::tupl
     s.renew(Op{}, m, r, push);
 };
 template <class S, class M, class Op>
-concept should_process_hook =
-    requires(S& s, const M& m, const queue_entry<typename M::tuple>& e) {
+concept should_process_hook = requires(S& s, const M& m, const queue_entry<typename M::tuple>& e) {
     { s.should_process(Op{}, m, e) } -> std::convertible_to<bool>;
 };
 template <class S, class M, class Op>
@@ -194,44 +195,54 @@ concept initial_hook = requires(S& s, const M& m, push_probe<typename M::tuple>&
     s.initial(m, push);
 };
 template <class S, class M>
-concept initial_at_hook =
-    requires(S& s, const M& m, index_t v, push_probe<typename M::tuple>& push) {
+concept initial_at_hook = requires(S& s, const M& m, index_t v,
+                                   push_probe<typename M::tuple>& push) {
     s.initial_at(m, v, push);
 };
 template <class S, class M>
-concept prepare_hook = requires(S& s, M& m, const exec_options& o) { s.prepare(m, o); } ||
-    requires(S& s, M& m) { s.prepare(m); };
+concept prepare_hook = requires(S& s, M& m, const exec_options& o) {
+    s.prepare(m, o);
+}
+|| requires(S& s, M& m) {
+    s.prepare(m);
+};
 template <class S, class M>
-concept finish_hook = requires(S& s, M& m) { s.finish(m); };
+concept finish_hook = requires(S& s, M& m) {
+    s.finish(m);
+};
 template <class S, class M>
 concept parallel_growth_hook = requires(S& s, const M& m) {
     { s.parallel_growth(m) } -> std::convertible_to<index_t>;
-} || requires(S& s, const M& m) {
+}
+|| requires(S& s, const M& m) {
     { s.parallel_growth(m).first } -> std::convertible_to<index_t>;
     { s.parallel_growth(m).second } -> std::convertible_to<index_t>;
 };
 template <class S>
-concept invariants_hook = requires(const S& s) { s.invariants(); };
+concept invariants_hook = requires(const S& s) {
+    s.invariants();
+};
 
 // ---- invariants ----
 template <class I, class M, class Op>
-concept invariant_before_hook =
-    requires(const I& i, const M& m, const typename M::tuple& t, typename I::state& st) {
+concept invariant_before_hook = requires(const I& i, const M& m, const typename M::tuple& t,
+                                         typename I::state& st) {
     { i.before(Op{}, m, t, st) } -> std::convertible_to<bool>;
 };
 template <class I, class M, class Op>
-concept invariant_before_nonconst =
-    requires(const I& i, M& m, typename M::tuple& t, typename I::state& st) {
+concept invariant_before_nonconst = requires(const I& i, M& m, typename M::tuple& t,
+                                             typename I::state& st) {
     i.before(Op{}, m, t, st);
 };
 template <class I, class M, class Op>
-concept invariant_after_hook =
-    requires(const I& i, const M& m, const op_result<typename M::tuple>& r, typename I::state& st) {
+concept invariant_after_hook = requires(const I& i, const M& m,
+                                        const op_result<typename M::tuple>& r,
+                                        typename I::state& st) {
     { i.after(Op{}, m, r, st) } -> std::convertible_to<bool>;
 };
 template <class I, class M, class Op>
-concept invariant_after_nonconst =
-    requires(const I& i, M& m, op_result<typename M::tuple>& r, typename I::state& st) {
+concept invariant_after_nonconst = requires(const I& i, M& m, op_result<typename M::tuple>& r,
+                                            typename I::state& st) {
     i.after(Op{}, m, r, st);
 };
 
@@ -273,8 +284,8 @@ struct op_hook_check {
     static constexpr bool priority_ok =
         !declares_priority<S> || priority_hook<S, M, Op> || !priority_hook_nonconst<S, M, Op>;
     static constexpr bool before_ok =
-        (!declares_before<S> || before_hook<S, M, Op> || !before_hook_nonconst<S, M, Op>) &&
-        before_returns_bool_or_optional<S, M, Op>;
+        (!declares_before<S> || before_hook<S, M, Op> ||
+         !before_hook_nonconst<S, M, Op>)&&before_returns_bool_or_optional<S, M, Op>;
     // A cache that no `after` takes would be dropped: that is always a mistake.
     static constexpr bool cache_taken =
         std::is_same_v<cache_t<S, M, Op>, no_cache> || after_hook_with_cache<S, M, Op>;
@@ -284,9 +295,8 @@ struct op_hook_check {
     static constexpr bool check() {
         static_assert(priority_ok, "idas: spec hook `priority` must take the mesh and tuple as "
                                    "const: double priority(Op, const Mesh&, const Mesh::tuple&)");
-        static_assert(before_ok,
-                      "idas: spec hook `before` must be bool or std::optional<Cache> "
-                      "before(Op, const Mesh&, const Mesh::tuple&)");
+        static_assert(before_ok, "idas: spec hook `before` must be bool or std::optional<Cache> "
+                                 "before(Op, const Mesh&, const Mesh::tuple&)");
         static_assert(cache_taken,
                       "idas: spec hook `after` does not take the cache that `before` returns for "
                       "this operation kind: expected bool after(Op, Mesh&, const "
@@ -318,11 +328,11 @@ struct spec_hook_check {
         !declares_parallel_growth<S> || parallel_growth_hook<S, M>;
     static constexpr bool invariants_ok = !declares_invariants<S> || invariants_hook<S>;
     static constexpr bool names_ok = !declares_operation<S> && !declares_invariant<S> &&
-        !declares_priorities<S> && !declares_renews<S>;
+                                     !declares_priorities<S> && !declares_renews<S>;
     static constexpr bool ok = priority_ok && before_ok && after_ok && renew_ok &&
-        should_process_ok && refused_ok && lock_region_ok && stop_ok && remaining_ok &&
-        initial_ok && initial_at_ok && prepare_ok && finish_ok && parallel_growth_ok &&
-        invariants_ok && names_ok;
+                               should_process_ok && refused_ok && lock_region_ok && stop_ok &&
+                               remaining_ok && initial_ok && initial_at_ok && prepare_ok &&
+                               finish_ok && parallel_growth_ok && invariants_ok && names_ok;
 
     static constexpr bool check() {
         static_assert(priority_ok, "idas: spec hook `priority` matches no operation kind in "
@@ -386,7 +396,8 @@ struct contract<S, M, op_list<Ops...>> {
 template <class S>
 concept lists_operations = requires {
     typename S::operations;
-} && op_list_traits<typename S::operations>::is_op_list;
+}
+&&op_list_traits<typename S::operations>::is_op_list;
 
 } // namespace detail
 

@@ -35,8 +35,7 @@ namespace idas {
 
 template <class Spec, executable_mesh Mesh, lock_policy Lock = lock::none,
           class Queue = queue::binary_heap, class Partition = partition::morton>
-requires queue_policy<Queue, queue_entry<typename Mesh::tuple>> &&
-    partition_policy<Partition, Mesh>
+requires queue_policy<Queue, queue_entry<typename Mesh::tuple>> && partition_policy<Partition, Mesh>
 class executor {
     static_assert(detail::check_contract<Spec, Mesh>());
 

@@ -46,7 +46,8 @@ struct op_list_traits<op_list<Ops...>> {
     static bool dispatch(std::uint8_t kind, Fn&& fn) {
         return [&]<std::size_t... I>(std::index_sequence<I...>) {
             return ((kind == I ? (fn(Ops{}), true) : false) || ...);
-        }(std::index_sequence_for<Ops...>{});
+        }
+        (std::index_sequence_for<Ops...>{});
     }
     template <class Fn>
     static void for_each(Fn&& fn) {

@@ -300,7 +300,7 @@ private:
     bool still_wanted(const entry& e) const noexcept {
         if (m_.is_valid(e.tuple)) return true;
         return ops::acts_on_vertex(e.kind) && e.tuple.vid < m_.vertex_slots() &&
-            m_.vertex_alive(e.tuple.vid);
+               m_.vertex_alive(e.tuple.vid);
     }
 
     void start_workers() {
@@ -416,7 +416,7 @@ private:
     Spec& spec_;
     exec_options options_;
     run_report report_;
-    progress live_;                             // serial phases: exact
+    progress live_;                            // serial phases: exact
     std::atomic<std::int64_t> live_packed_{0}; // parallel phases: packed faces and vertices
     std::atomic<bool> stop_{false};
     std::unique_ptr<worker> serial_;

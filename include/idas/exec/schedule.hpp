@@ -63,8 +63,8 @@ struct phase_count {
 template <template <class...> class Group, class... Steps>
 requires(std::is_same_v<Group<Steps...>, sequence<Steps...>> ||
          std::is_same_v<Group<Steps...>, repeat<Steps...>> ||
-         std::is_same_v<Group<Steps...>, repeat_while_busy<Steps...>>)
-struct phase_count<Group<Steps...>> {
+         std::is_same_v<Group<Steps...>,
+                        repeat_while_busy<Steps...>>) struct phase_count<Group<Steps...>> {
     static constexpr std::size_t value = (phase_count<Steps>::value + ... + 0);
 };
 

@@ -89,7 +89,9 @@ template <class M>
 inline constexpr bool has_relaxed_versions = requires(const M& m, index_t i) {
     m.connectivity().face_version_relaxed(i);
 }
-|| requires(const M& m, index_t i) { m.connectivity().tet_version_relaxed(i); };
+|| requires(const M& m, index_t i) {
+    m.connectivity().tet_version_relaxed(i);
+};
 
 /// Whether the tuple's cell changed since the tuple was made, read while other workers
 /// may bump versions (only backends with relaxed version reads).

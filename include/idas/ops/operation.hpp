@@ -204,9 +204,10 @@ namespace detail {
 /// Says what an invariant type lacks, if anything.
 template <class I>
 constexpr bool check_invariant() {
-    static_assert(requires { typename I::state; },
-                  "idas: an invariant declares its per-operation scratch as a nested type `state` "
-                  "(`struct state {};` if it keeps none)");
+    static_assert(
+        requires { typename I::state; },
+        "idas: an invariant declares its per-operation scratch as a nested type `state` "
+        "(`struct state {};` if it keeps none)");
     if constexpr (requires { typename I::state; })
         static_assert(std::default_initializable<typename I::state>,
                       "idas: an invariant's `state` must be default-constructible");

@@ -186,8 +186,7 @@ auto apply(op::smooth_vertex, Mesh& m, const typename Mesh::tuple& t, Spec& s,
 /// cells; any refusal rolls everything back. Overload `apply(Op, Mesh&, tuple, Spec&,
 /// op_context&)` in Op's namespace to let the executor find it.
 template <operation_kind Op, class Mesh, class Spec, class Change>
-std::optional<op_result<typename Mesh::tuple>> run_operation(Mesh& m,
-                                                             const typename Mesh::tuple& t,
+std::optional<op_result<typename Mesh::tuple>> run_operation(Mesh& m, const typename Mesh::tuple& t,
                                                              Spec& spec, op_context<Mesh>& ctx,
                                                              Change&& change) {
     return detail::run_tri_operation<Op>(m, t, spec, ctx, std::forward<Change>(change));

@@ -32,7 +32,9 @@ public:
         pools_.assign(workers, {});
         const std::size_t reused = std::min<std::size_t>(free.size(), wanted);
         std::vector<index_t> dealt(free.end() - std::ptrdiff_t(reused), free.end());
-        free.resize(free.size() - reused);
+        // erase rather than resize: g++ 12 warns (-Wstringop-overflow) on a resize it
+        // cannot see only shrinks.
+        free.erase(free.end() - std::ptrdiff_t(reused), free.end());
         for (index_t s = slots; dealt.size() < wanted; ++s) dealt.push_back(s);
         std::sort(dealt.begin(), dealt.end());
         // Contiguous blocks, pushed in reverse so each worker hands out ascending slots.
