@@ -63,6 +63,8 @@ passed=0 failed=0
 for t in "${targets[@]}"; do
     h="${harness_of[$t]}"
     work="$out/corpus/$t" findings="$out/findings/$t"
+    # Findings are those of this run: a fixed one from before must not fail it again.
+    rm -rf "$findings"
     mkdir -p "$work" "$findings"
     log="$out/logs/$t.log"
     # New inputs go to the first (scratch) corpus; the seeds are only read.
