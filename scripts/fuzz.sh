@@ -80,7 +80,7 @@ for t in "${targets[@]}"; do
         failed=$((failed + 1))
         echo "fuzz: $t: FINDING (exit $status), input(s) in $findings/, log $log"
         grep -E "ERROR|runtime error|idas fuzz finding|Timeout|out-of-memory|uncaught" "$log" |
-            head -n 5 | sed 's/^/    /'
+            head -n 5 | sed 's/^/    /' || true # no matching line must not end the script
     fi
 done
 echo "fuzz: $passed passed, $failed failed"
