@@ -15,6 +15,9 @@ packages=(
   # peers and the optional CGAL-based headers
   libcgal-dev libopenmesh-dev libmpfr-dev
   clang-format
+  # scripts/fuzz.sh: libFuzzer ships in compiler-rt (libclang_rt.fuzzer), which the generic
+  # package installs for the same default clang version as "clang"
+  clang libclang-rt-dev
 )
 
 missing=()

@@ -95,7 +95,8 @@ inline surface parse_obj(std::string_view text, std::string_view source,
                     fail_here("face " + std::to_string(face_number) +
                               " references vertex 0; OBJ indices start at 1");
                 if (index < 0) {
-                    if (-index > count)
+                    // Compare without negating: -INT64_MIN overflows.
+                    if (index < -count)
                         fail_here("face " + std::to_string(face_number) + ": relative index " +
                                   std::to_string(index) + " points before the first vertex (" +
                                   std::to_string(count) + " vertices defined so far)");

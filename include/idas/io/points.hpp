@@ -62,7 +62,7 @@ inline std::vector<vec3> parse_ply_points(std::string_view data, std::string_vie
         std::size_t record = 0;
         bool has_list = false;
         if (e.properties.size() > 64) fail(source, "too many properties in element " + e.name);
-        int found = 0;
+        unsigned found = 0; // bit per axis: x, y and z each exactly once
         for (std::size_t i = 0; i < e.properties.size(); ++i) {
             const auto& p = e.properties[i];
             axis_of[i] = -1;
@@ -71,46 +71,60 @@ inline std::vector<vec3> parse_ply_points(std::string_view data, std::string_vie
                 continue;
             }
             record += ply_size(p.type);
-            if (is_vertex && (p.name == "x" || p.name == "y" || p.name == "z"))
-                axis_of[i] = p.name[0] - 'x', ++found;
+            if (is_vertex && (p.name == "x" || p.name == "y" || p.name == "z")) {
+                const int axis = p.name[0] - 'x';
+                if (found & (1u << axis))
+                    fail(source, "the vertex element declares property " + p.name + " twice");
+                axis_of[i] = axis, found |= 1u << axis;
+            }
         }
+        const auto truncated = [&](std::uint64_t done) {
+            fail(source, "truncated: header says " + std::to_string(e.count) + " " + ply_plural(e) +
+                             ", found " + std::to_string(done));
+        };
         if (!is_vertex) {
             if (h.format == ply_format::ascii) {
-                // ASCII elements before the vertices: one line per record.
+                // ASCII elements before the vertices: one line per record. A record
+                // needs a token, so a huge count stops at the end of the data.
+                if (e.properties.empty()) continue;
                 for (std::uint64_t i = 0; i < e.count; ++i) {
-                    ascii_tokens.next();
+                    if (ascii_tokens.next().empty()) truncated(i);
                     ascii_tokens.skip_line();
                 }
             } else {
                 if (has_list)
                     fail(source, "element " + io::detail::quoted(e.name) +
                                      " before the vertices has list properties; not supported");
+                // Compare by division: record * count can overflow and wrap pos around.
+                if (record > 0 && e.count > (data.size() - pos) / record)
+                    truncated((data.size() - pos) / record);
                 pos += record * e.count;
             }
             continue;
         }
-        if (found != 3 || has_list)
+        if (found != 7 || has_list)
             fail(source, "the vertex element needs scalar properties x, y and z");
         if (e.count >= invalid_index) fail(source, "too many vertices");
-        std::vector<vec3> points(e.count);
+        // Reserve only what the remaining bytes can hold: the count may be a lie. An ASCII
+        // value takes at least a character and a separator.
+        const bool ascii = h.format == ply_format::ascii;
+        std::vector<vec3> points;
+        points.reserve(
+            capped_reserve(e.count, data.size() - pos, ascii ? 2 * e.properties.size() : record));
         for (std::uint64_t i = 0; i < e.count; ++i) {
-            vec3& q = points[i];
+            vec3 q;
             for (std::size_t k = 0; k < e.properties.size(); ++k) {
                 const auto& p = e.properties[k];
                 double value = 0;
                 if (h.format == ply_format::ascii) {
                     const std::string_view token = ascii_tokens.next();
-                    if (token.empty())
-                        fail(source, "truncated: header says " + std::to_string(e.count) +
-                                         " vertices, found " + std::to_string(i));
+                    if (token.empty()) truncated(i);
                     if (parse_double(token, value) != parse_status::ok)
                         fail_at_line(source, ascii_tokens.line(),
                                      io::detail::quoted(token) + " is not a number");
                 } else {
                     const std::size_t n = ply_size(p.type);
-                    if (pos + n > data.size())
-                        fail(source, "truncated: header says " + std::to_string(e.count) +
-                                         " vertices, found " + std::to_string(i));
+                    if (data.size() - pos < n) truncated(i);
                     value = ply_load_double(p.type, base + pos, swap);
                     pos += n;
                 }
@@ -118,6 +132,7 @@ inline std::vector<vec3> parse_ply_points(std::string_view data, std::string_vie
             }
             if (!is_finite(q))
                 fail(source, "vertex " + std::to_string(i) + " has a non-finite coordinate");
+            points.push_back(q);
         }
         return points;
     }
@@ -126,16 +141,22 @@ inline std::vector<vec3> parse_ply_points(std::string_view data, std::string_vie
 
 } // namespace detail
 
+/// Parses a point set held in memory, in the format its `extension` names (".xyz",
+/// ".txt" or ".ply", any case); `source` names it in error messages.
+inline std::vector<vec3> parse_points(std::string_view data, std::string_view source,
+                                      std::string_view extension) {
+    std::string ext(extension);
+    for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    if (data.empty()) detail::fail(source, "file is empty");
+    if (ext == ".ply") return detail::parse_ply_points(data, source);
+    if (ext == ".xyz" || ext == ".txt") return detail::parse_xyz(data, source);
+    detail::fail(source, "unknown point-set extension (expected .xyz or .ply)");
+}
+
 /// Reads a point set from .xyz or .ply (by extension). Throws input_error naming the file
 /// and the problem.
 inline std::vector<vec3> read_points(const std::filesystem::path& path) {
-    std::string ext = path.extension().string();
-    for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-    const std::string data = detail::read_file(path);
-    if (data.empty()) detail::fail(path.string(), "file is empty");
-    if (ext == ".ply") return detail::parse_ply_points(data, path.string());
-    if (ext == ".xyz" || ext == ".txt") return detail::parse_xyz(data, path.string());
-    detail::fail(path.string(), "unknown point-set extension (expected .xyz or .ply)");
+    return parse_points(detail::read_file(path), path.string(), path.extension().string());
 }
 
 /// N points of the standard normal distribution in 3D, reproducible across platforms for a
