@@ -648,10 +648,10 @@ run_report remesh_once(mesh_t& m, unsigned threads, double (&phase_seconds)[4]) 
     s.feature = m.add_vertex_attribute<std::uint8_t>("remesh_feature", 0);
     s.boundary = m.add_vertex_attribute<std::uint8_t>("remesh_boundary", 0);
     add_smoothing_stamp(s, m);
-    remesh_split_spec<> split{{}, &s};
-    remesh_collapse_spec<> collapse{{}, &s};
-    remesh_swap_spec<> swap{{}, &s};
-    remesh_smooth_spec<> smooth{{}, &s, true};
+    remesh_split_spec<> split{{}, s};
+    remesh_collapse_spec<> collapse{{}, s};
+    remesh_swap_spec<> swap{{}, s};
+    remesh_smooth_spec<> smooth{{}, s, true};
     const exec_options o{.threads = threads};
     run_report phase[4];
     phase[0] = executor<remesh_split_spec<>, mesh_t, Lock, Queue, Partition>::run(m, split, o);
