@@ -175,7 +175,7 @@ std::vector<std::optional<vec3>> collapse_fan(double height, bool frozen_ring) {
     if (frozen_ring)
         for (index_t v = 2; v < 8; ++v)
             m.attribute(s.boundary).set(v, 1), m.attribute(s.frozen).set(v, 1);
-    const remesh_collapse_spec<> collapse{{}, &s};
+    const remesh_collapse_spec<> collapse{{}, s};
     std::vector<std::optional<vec3>> kept;
     m.for_each_edge([&](const tri_tuple& e) {
         const auto [x, y] = m.edge_vertices(e);

@@ -21,8 +21,9 @@ struct shortest_edge_collapse_spec : collapse_schedule {
     using operations = op_list<op::collapse_edge>;
 
     template <class Mesh>
-    void prepare(Mesh& m) {
+    void prepare(Mesh& m, const exec_options& o) {
         forget_refusals(m);
+        plan_serial_tail(o);
     }
 
     template <class Mesh>
@@ -61,6 +62,7 @@ template <bool NoNormalFlip = true, class Mesh = tri_mesh<>, class Lock = lock::
 using shortest_edge_collapse =
     executor<shortest_edge_collapse_spec<NoNormalFlip>, Mesh, Lock, Queue, Partition>;
 
-static_assert(spec_for<shortest_edge_collapse_spec<true>, tri_mesh<>> && spec_for<shortest_edge_collapse_spec<false>, tri_mesh<>>);
+static_assert(spec_for<shortest_edge_collapse_spec<true>, tri_mesh<>> &&
+              spec_for<shortest_edge_collapse_spec<false>, tri_mesh<>>);
 
 } // namespace idas::algorithms
