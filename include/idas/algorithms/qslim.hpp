@@ -108,8 +108,9 @@ struct qslim_spec : collapse_schedule {
 
     /// Builds the vertex quadrics once, before the first priority is computed.
     template <class Mesh>
-    void prepare(Mesh& m) {
+    void prepare(Mesh& m, const exec_options& o) {
         forget_refusals(m);
+        plan_serial_tail(o);
         Q = m.template add_vertex_attribute<quadric>("qslim_quadric");
         auto q = m.attribute(Q);
         for (index_t v = 0; v < m.vertex_slots(); ++v) q.raw(v) = {};

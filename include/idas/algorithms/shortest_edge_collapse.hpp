@@ -21,8 +21,9 @@ struct shortest_edge_collapse_spec : collapse_schedule {
     using operations = op_list<op::collapse_edge>;
 
     template <class Mesh>
-    void prepare(Mesh& m) {
+    void prepare(Mesh& m, const exec_options& o) {
         forget_refusals(m);
+        plan_serial_tail(o);
     }
 
     template <class Mesh>

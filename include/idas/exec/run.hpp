@@ -376,8 +376,11 @@ private:
 
         // Final serial pass: entries that kept losing lock races, then anything left.
         // Leftovers move over as they are; deferred and final-pass entries are pushed anew.
+        // A spec may reach its parallel goal (`remaining`) before its stopping criterion,
+        // leaving its last operations to this pass, in one global order.
         live_ = shared_progress();
-        if (!stopped() && !hooks::should_stop(spec_, live_)) {
+        stop_.store(false, std::memory_order_relaxed);
+        if (!hooks::should_stop(spec_, live_)) {
             worker& me = serial_worker();
             for (const auto& x : final_pass_) me.q.push(x);
             report_.pushed += final_pass_.size();
