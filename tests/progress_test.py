@@ -11,7 +11,7 @@ os.makedirs(tmp, exist_ok=True)
 env = dict(os.environ, IDAS_PROGRESS_DELAY_MS="0")  # draw from the start: runs are short here
 
 runs = {
-    "decimate": ["decimate", f"{data}/bunny.off", f"{tmp}/d.ply", "--ratio", "0.1"],
+    "decimate": ["decimate", f"{data}/bunny.obj", f"{tmp}/d.ply", "--ratio", "0.1"],
     "remesh": ["remesh", f"{data}/bunny.off", f"{tmp}/r.ply", "--edge-length", "0.01",
                "--iterations", "2"],
     "harmonic": ["harmonic", "--gaussian", "20000", f"{tmp}/h.msh"],
@@ -50,7 +50,8 @@ def on_terminal(args):
 for command, args in runs.items():
     rc, tty = on_terminal(args)
     check(f"{command} on a terminal exits 0", rc == 0, f"(exit {rc}: {tty[-300:]})")
-    check(f"{command} draws its bar on a terminal", f"\r{command} [#" in tty, repr(tty[-300:]))
+    check(f"{command} draws its bar on a terminal", f"\r{command} [" in tty, repr(tty[-300:]))
+    check(f"{command} ends the bar's line", tty.rstrip(" ").endswith("\n"), repr(tty[-100:]))
     piped = subprocess.run([idas] + args, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                            env=env)
     check(f"{command} on a pipe exits 0", piped.returncode == 0)
