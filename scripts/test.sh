@@ -12,8 +12,8 @@ cmake --preset tsan
 cmake --build --preset tsan --target idas_parallel_tests
 ./build/tsan/tests/idas_parallel_tests -tc="parallel*,METIS*,harmonic*,adjacency*,vertex_try_lock*" -tce="*envelope*"
 # Every file reader under libFuzzer with ASan + UBSan (exit 1 on any finding). CI has 2 cores
-# and 40 minutes for this whole script: 15 s for each of the 12 targets is about 3 minutes
+# and 40 minutes for this whole script: 10 s for each of the 12 targets is about 2 minutes
 # plus under a minute to build the harnesses, enough to replay the seed and regression
 # corpus and catch a reader that breaks on simple mutations. Fuzz longer locally:
 # scripts/fuzz.sh 300.
-bash scripts/fuzz.sh "${IDAS_CI_FUZZ_SECONDS:-15}"
+bash scripts/fuzz.sh "${IDAS_CI_FUZZ_SECONDS:-10}"
