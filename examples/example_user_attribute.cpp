@@ -51,6 +51,13 @@ struct refine_with_field {
         const auto [a, b] = m.edge_vertices(t);
         return idas::squared_norm(m.position(a) - m.position(b));
     }
+    // S: the edges that are too long to start with (the default would queue every edge).
+    template <class Push>
+    void initial(const mesh& m, Push& push) const {
+        m.for_each_edge([&](const tuple& t) {
+            if (length2(m, t) > longest * longest) push(op::split_edge{}, t);
+        });
+    }
     // D: longest first.
     double priority(op::split_edge, const mesh& m, const tuple& t) const { return -length2(m, t); }
 

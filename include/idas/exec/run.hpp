@@ -185,8 +185,8 @@ public:
             push_renewed<Shared>(me);
             count_success<Shared>(me, ctx.face_delta - fd, ctx.vertex_delta - vd);
             outcome = step_outcome::succeeded;
+            purge_if_bloated<Shared>(me);
         });
-        purge_if_bloated<Shared>(me);
         return outcome;
     }
 
@@ -274,8 +274,8 @@ private:
     /// sweep reach half the queue: a sweep then costs O(1) per entry it is likely to drop.
     template <bool Shared>
     void purge_if_bloated(worker& me) {
-        if (me.pushed_since_purge <= me.q.size() / 2 + 4096) return;
         if constexpr (!Shared) {
+            if (me.pushed_since_purge <= me.q.size() / 2 + 4096) return;
             const std::size_t before = me.q.size();
             me.q.erase_if([&](const entry& x) { return !still_wanted(x); });
             me.report.purged += before - me.q.size();
@@ -284,7 +284,8 @@ private:
             // Versions may be bumped concurrently by other workers, so they are read with
             // relaxed atomics; a matching version keeps the entry (conservative). Vertex
             // entries stay; whether their vertex lives is checked under its claim.
-            tbb::spin_mutex::scoped_lock lk(me.mutex);
+            tbb::spin_mutex::scoped_lock lk(me.mutex); // thieves pop: read the size under it
+            if (me.pushed_since_purge <= me.q.size() / 2 + 4096) return;
             const std::size_t before = me.q.size();
             me.q.erase_if([&](const entry& x) {
                 return !ops::acts_on_vertex(x.kind) && cells::version_moved_on(m_, x.tuple);
