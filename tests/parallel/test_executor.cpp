@@ -83,8 +83,10 @@ double relative_hausdorff(const Mesh& m, const Mesh& input) {
 
 } // namespace
 
-TEST_CASE_TEMPLATE("parallel QSlim is as close to the input as serial and hits the target", Mesh,
-                   IDAS_TRI_MESHES) {
+// Not named "parallel...": its distance measure runs on oneTBB, whose joins ThreadSanitizer
+// cannot see in Debian's uninstrumented build, so scripts/test.sh's TSan pass leaves it out.
+TEST_CASE_TEMPLATE("QSlim on 4 threads is as close to the input as serial and hits the target",
+                   Mesh, IDAS_TRI_MESHES) {
     // Each part's queue orders only its own edges: run to the end in parallel, QSlim took
     // costly collapses in one part while cheap ones waited in another (the cube to 1%:
     // 0.06-0.4 of the diagonal on 4-8 threads, 1e-13 serially) and overshot the target.
