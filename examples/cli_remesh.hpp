@@ -108,11 +108,11 @@ int run_remesh(const remesh_arguments& a) {
 
     idas::io::surface result;
     std::tie(result.vertices, result.faces) = m.to_arrays();
+    const mesh_stats out_stats = compute_stats(result);
     const stopwatch check_clock;
-    check_result("remesh", idas::summarize_surface(s.vertices.size(), s.faces), result);
+    check_result("remesh", summary_of(in_stats.topo), summary_of(out_stats.topo));
     const double t_check = check_clock.seconds();
     save(a.out, result, a.ascii);
-    const mesh_stats out_stats = compute_stats(result);
     if (a.as_json) {
         json j;
         j["input"] = a.in;

@@ -362,8 +362,7 @@ idas::io::surface load(const std::string& path) {
 /// 2-manifold with the input's Euler characteristic and boundary loops. A failure is a bug
 /// in idas, not in the user's file: exit 1, naming the command and the check.
 void check_result(const char* command, const idas::surface_summary& input,
-                  const idas::io::surface& result) {
-    const idas::surface_summary out = idas::summarize_surface(result.vertices.size(), result.faces);
+                  const idas::surface_summary& out) {
     std::string failed;
     if (out.problem)
         failed = "not an oriented 2-manifold: " + *out.problem;
@@ -377,6 +376,20 @@ void check_result(const char* command, const idas::surface_summary& input,
         throw std::runtime_error(std::string("internal error: ") + command +
                                  " produced an invalid mesh (result check: " + failed +
                                  "); nothing was written");
+}
+void check_result(const char* command, const idas::surface_summary& input,
+                  const idas::io::surface& result) {
+    check_result(command, input, idas::summarize_surface(result.vertices.size(), result.faces));
+}
+
+/// The same numbers from a full diagnosis, for commands that report statistics anyway
+/// (so the result is not walked twice).
+idas::surface_summary summary_of(const idas::topology_report& t) {
+    idas::surface_summary s;
+    if (!t.editable()) s.problem = t.problems.empty() ? "not editable" : t.problems.front();
+    s.euler_characteristic = t.euler_characteristic;
+    s.boundary_edges = t.boundary_edges, s.boundary_loops = t.boundary_loops;
+    return s;
 }
 
 void save(const std::string& path, const idas::io::surface& s, bool ascii) {
@@ -600,13 +613,13 @@ int run_demo(const std::string& in, const std::string& out, bool as_json, std::u
         throw std::runtime_error("the edited mesh is inconsistent: " + *problem);
     idas::io::surface result;
     std::tie(result.vertices, result.faces) = m.to_arrays();
-    check_result("demo", idas::summarize_surface(s.vertices.size(), s.faces), result);
+    const mesh_stats out_stats = compute_stats(result);
+    check_result("demo", summary_of(in_stats.topo), summary_of(out_stats.topo));
     const double t_validate = clock.seconds();
 
     clock = {};
     save(out, result, ascii);
     const double t_write = clock.seconds();
-    const mesh_stats out_stats = compute_stats(result);
 
     static constexpr const char* names[4] = {"split", "collapse", "swap", "smooth"};
     if (as_json) {
