@@ -11,6 +11,8 @@
 //               [--envelope EPS] [--backend B]     isotropic remeshing (cli_remesh.hpp)
 //   idas harmonic OUT (--points IN | --gaussian N [--seed S]) [--mode M] [--threads T]
 //                                              harmonic triangulation of points (cli_harmonic.hpp)
+//   idas tetmesh IN OUT.msh [--epsilon E] [--edge-length L] [--absolute] [--threads T]
+//                                              tet mesh of a triangle soup (cli_tetmesh.hpp)
 // B is the triangle connectivity backend, indexed (default) or corner-table (harmonic:
 // tet backend, indexed or adjacency).
 // Surface or tets is decided by the extension: .msh is a tet mesh (MSH 2.2/4.1, read and
@@ -35,10 +37,12 @@
 #if IDAS_CLI_HAVE_CGAL
 #include <idas/algorithms/harmonic_triangulation.hpp>
 #include <idas/cgal/delaunay.hpp>
+#include <idas/cgal/tetmesh.hpp>
 #include <idas/invariants/envelope.hpp>
 #include <idas/io/msh.hpp>
 #include <idas/io/points.hpp>
 #include <idas/io/vtu.hpp>
+#include <tbb/global_control.h>
 #endif
 
 #include <CLI/CLI.hpp>
@@ -754,6 +758,7 @@ int run_decimate(const std::string& in, const std::string& out, const std::strin
 #include "cli_harmonic.hpp"
 #include "cli_remesh.hpp"
 #include "cli_tet.hpp"
+#include "cli_tetmesh.hpp"
 
 // ---- main ----------------------------------------------------------------------------------
 
@@ -880,6 +885,9 @@ int run(int argc, char** argv) {
     harmonic_arguments ha;
     auto* harmonic = add_harmonic_command(app, ha, unsigned_integer);
 
+    tetmesh_arguments ta;
+    auto* tetmesh = add_tetmesh_command(app, ta, unsigned_integer);
+
     try {
         app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {
@@ -898,6 +906,7 @@ int run(int argc, char** argv) {
         return with_backend(
             ra.backend, [&]<class Mesh>(std::type_identity<Mesh>) { return run_remesh<Mesh>(ra); });
     if (harmonic->parsed()) return run_harmonic(ha);
+    if (tetmesh->parsed()) return run_tetmesh(ta);
     if (decimate->parsed())
         return with_backend(backend, [&]<class Mesh>(std::type_identity<Mesh>) {
             return run_decimate<Mesh>(in, out, algorithm,

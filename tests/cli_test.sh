@@ -658,6 +658,45 @@ for attempt in 1 2 3 4 5; do
 done
 if [ "$caught" -eq 1 ]; then ok; else fail "SIGTERM: the write was never caught in progress"; fi
 
+# ---- tetmesh ---------------------------------------------------------------------------------
+
+run tetmesh "$DATA/hour_glass.off" "$TMP/hg.msh" --json
+expect_rc "tetmesh hour_glass" 0
+expect_one_json "tetmesh hour_glass"
+expect_field "tetmesh hour_glass" "d['inserted_triangles'] == d['triangles'] == 512" True
+expect_field "tetmesh hour_glass" "d['inverted_tets']" 0
+expect_field "tetmesh hour_glass" "0 < d['inside_tets'] < d['tets']" True
+run info "$TMP/hg.msh" --json
+expect_rc "tetmesh output reads back" 0
+run tetmesh "$DATA/hour_glass.off" "$TMP/hg_ascii.msh" --ascii --json
+expect_rc "tetmesh ascii" 0
+tags=$(awk '/\$Elements/{e=1;next} /\$EndElements/{e=0} e && NF==9 {print $4}' "$TMP/hg_ascii.msh" | sort -u | tr '\n' ' ')
+if [ "$tags" = "1 2 " ]; then ok; else fail "tetmesh: MSH physical tags are '$tags', expected '1 2 '"; fi
+run tetmesh "$DATA/hour_glass.off" "$TMP/hg2.msh" --json --threads 2
+if cmp -s "$TMP/hg.msh" "$TMP/hg2.msh"; then ok; else fail "tetmesh: 1 and 2 threads give different files"; fi
+run tetmesh "$DATA/x.stl" "$TMP/x.msh" --json
+expect_rc "tetmesh x.stl soup" 0
+expect_field "tetmesh x.stl" "d['inserted_triangles'] == d['triangles']" True
+printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n' >"$TMP/flat.obj"
+run tetmesh "$TMP/flat.obj" "$TMP/flat.msh"
+expect_error "tetmesh flat input" 2 "encloses no volume"
+if [ ! -e "$TMP/flat.msh" ]; then ok; else fail "tetmesh flat input: wrote an output"; fi
+printf 'v 0 0 0\nv 1 0 0\nv nan 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 4\n' >"$TMP/nan.obj"
+run tetmesh "$TMP/nan.obj" "$TMP/nan.msh"
+expect_error "tetmesh NaN coordinate" 2
+printf 'v 0 0 0\nv 1e308 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 4\n' >"$TMP/huge.obj"
+run tetmesh "$TMP/huge.obj" "$TMP/huge.msh"
+expect_error "tetmesh 1e308 coordinate" 2
+printf 'v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n' >"$TMP/degenerate.obj"
+run tetmesh "$TMP/degenerate.obj" "$TMP/degenerate.msh"
+expect_error "tetmesh only degenerate faces" 2 "degenerate"
+run tetmesh "$DATA/hour_glass.off" "$TMP/hg.vtu"
+expect_error "tetmesh wrong extension" 2 ".msh"
+run tetmesh "$DATA/hour_glass.off" "$TMP/hg3.msh" --edge-length -1
+expect_error "tetmesh negative edge length" 2 "edge-length"
+run tetmesh "$DATA/hour_glass.off" "$TMP/hg3.msh" --epsilon nan
+expect_error "tetmesh NaN epsilon" 2
+
 # ---- help ------------------------------------------------------------------------------------
 
 run --help

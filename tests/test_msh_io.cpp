@@ -71,7 +71,7 @@ void put(std::string& out, T value, bool big_endian = false) {
 
 volume cube_volume(int n = 2) {
     auto [V, T] = idas::test::cube_arrays(n, false, 0.2, 5);
-    return {V, T, 0};
+    return {V, T, 0, {}};
 }
 
 struct variant {
@@ -135,7 +135,7 @@ TEST_CASE_TEMPLATE("msh: round trips in all four variants are exact", Mesh, IDAS
         Mesh m(r.vertices, r.tets);
         auto [V, T] = m.to_arrays();
         std::stringstream s;
-        write_msh(s, volume{V, T, 0}, var.version, var.enc);
+        write_msh(s, volume{V, T, 0, {}}, var.version, var.enc);
         const volume again = parse_msh(s.str(), "stream");
         CHECK(again.vertices == V);
         CHECK(again.tets == T);

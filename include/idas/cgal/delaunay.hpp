@@ -22,6 +22,7 @@ struct delaunay_result {
     std::vector<vec3> vertices;    // the distinct input points, in a spatially coherent order
     std::vector<tet_indices> tets; // positively oriented (exact orient3d > 0)
     std::size_t duplicates = 0;    // input points dropped because an earlier one equals them
+    std::vector<index_t> index_of; // input point i is vertices[index_of[i]] (invalid: a duplicate)
 };
 
 /// Delaunay tetrahedralization of `points`. Exact duplicates are merged (the first copy
@@ -82,6 +83,7 @@ inline delaunay_result delaunay_tetrahedralization(const std::vector<vec3>& poin
             if (id != invalid_index) id = rank[id];
         r.vertices = std::move(sorted);
     }
+    r.index_of = new_id;
     std::vector<tet_indices> cells;
     cells.reserve(dt.number_of_finite_cells());
     std::vector<std::size_t> first(r.vertices.size() + 1, 0);

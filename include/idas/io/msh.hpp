@@ -590,7 +590,8 @@ inline void write_msh_unchecked(std::ostream& os, const volume& v, msh_version v
             out << "$EndNodes\n$Elements\n" << m << '\n';
             for (std::uint64_t t = 0; t < m; ++t) {
                 const auto& tv = v.tets[t];
-                out << (t + 1) << " 4 2 1 1";
+                const std::uint64_t tag = v.tags.empty() ? 1u : std::uint64_t(v.tags[t]);
+                out << (t + 1) << " 4 2 " << tag << ' ' << tag;
                 for (index_t x : tv) out << ' ' << std::uint64_t{x} + 1;
                 out << '\n';
             }
@@ -640,7 +641,8 @@ inline void write_msh_unchecked(std::ostream& os, const volume& v, msh_version v
         }
         for (std::uint64_t t = 0; t < m; ++t) {
             put_binary(buf, static_cast<std::int32_t>(t + 1));
-            put_binary<std::int32_t>(buf, 1), put_binary<std::int32_t>(buf, 1);
+            const std::int32_t tag = v.tags.empty() ? 1 : v.tags[t];
+            put_binary<std::int32_t>(buf, tag), put_binary<std::int32_t>(buf, tag);
             for (index_t x : v.tets[t]) put_binary(buf, static_cast<std::int32_t>(x + 1));
             flush_if_large(os, buf);
         }

@@ -21,6 +21,9 @@ struct volume {
     /// Elements of other types (points, lines, triangles, higher-order cells...) that
     /// the reader skipped.
     std::size_t skipped_elements = 0;
+    /// Per tet, a tag the writers store as the element's physical (and elementary) tag in
+    /// MSH 2.2; empty means tag 1 for every tet.
+    std::vector<int> tags;
 };
 
 /// Swaps two corners of every negatively oriented tet (exact orient3d), for files
@@ -55,6 +58,11 @@ inline void check_writable(const volume& v, std::string_view target) {
                     fail(target, "tet " + std::to_string(t) + " is degenerate (repeats a vertex)");
         }
     }
+    if (!v.tags.empty() && v.tags.size() != v.tets.size())
+        fail(target, "there are " + std::to_string(v.tags.size()) + " tet tags for " +
+                         std::to_string(v.tets.size()) + " tets");
+    for (int tag : v.tags)
+        if (tag <= 0) fail(target, "tet tags must be positive (MSH physical tags)");
 }
 
 } // namespace detail

@@ -1,0 +1,1240 @@
+// Exact insertion of a triangle soup into a background tet mesh: the front end of
+// TetWild-style meshing (Hu et al. 2018, 2020), done so that it cannot fail.
+//
+// Every tet is cut by the planes of the input triangles that may meet it (a binary space
+// partition of the tet into convex cells, with exact rational arithmetic); the facets on
+// a triangle's plane are then split along the triangle's edge lines, so that each input
+// triangle is exactly a union of facets. Conformity between tets comes from the
+// construction, not from repair:
+//   - a face shared by tets A and B is split, from both sides, by the same lines: the
+//     planes of A and of B, and the edge lines of the triangles lying on the face;
+//   - every point created on a tet's face or edge is handed to the tets sharing that face
+//     or edge, which put it on their polygon sides;
+//   - polygons and cells are triangulated by canonical rules that depend only on their
+//     points (fan from the smallest corner whose sides hold no extra point, else from a
+//     Steiner point built from the corners), so both sides agree.
+// Each convex cell becomes tets by a cone from one of its corners, or from an interior
+// Steiner point when no corner sees every boundary triangle. All tets are positively
+// oriented by an exact orient3d on their rational corners.
+//
+// Phases (each parallel over tets with oneTBB; the result does not depend on the number
+// of threads): (0) which triangles may meet which tet, by a walk from each triangle's
+// first corner; (1) cut each tet and split its facets; (2) gather the points of the
+// neighbours, triangulate, cone; then a serial assembly numbers the vertices in tet order.
+#pragma once
+
+#include <idas/core/types.hpp>
+#include <idas/mesh/tet_mesh.hpp>
+#include <idas/predicates/orient.hpp>
+#include <idas/predicates/rational.hpp>
+
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <map>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <tuple>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+namespace idas::insertion {
+
+/// A background tet mesh and a triangle soup whose corners are among its vertices.
+struct insertion_input {
+    std::vector<vec3> vertices;
+    std::vector<tet_indices> tets;      ///< positively oriented, conforming, a manifold
+    std::vector<tri_indices> triangles; ///< non-degenerate, corners in `vertices`
+};
+
+/// The background mesh with every input triangle inserted.
+struct inserted_mesh {
+    /// Nearest doubles of the vertex positions (exact for every vertex not in `exact`).
+    std::vector<vec3> vertices;
+    /// Exact positions of the vertices whose coordinates are not doubles.
+    std::unordered_map<index_t, rational_point> exact;
+    /// Positively oriented by an exact orient3d on the exact positions.
+    std::vector<tet_indices> tets;
+    /// The tracked surface: faces of `tets` that cover input triangles. Face i covers the
+    /// input triangles tracked_by[tracked_first[i] .. tracked_first[i + 1]).
+    std::vector<tri_indices> tracked;
+    std::vector<index_t> tracked_first{0};
+    std::vector<index_t> tracked_by;
+    /// Background tets cut by at least one plane, and those re-tetrahedralized only
+    /// because a neighbour put points on their faces or edges.
+    std::size_t cut_tets = 0, refined_tets = 0;
+
+    bool is_exact_double(index_t v) const { return !exact.contains(v); }
+    rational_point exact_position(index_t v) const {
+        auto it = exact.find(v);
+        return it == exact.end() ? to_rational(vertices[v]) : it->second;
+    }
+};
+
+namespace detail {
+
+// ---- exact planes ------------------------------------------------------------------------
+
+/// The plane {x : n . x = off}, oriented by n. Planes through three double points keep
+/// them for the exact double orient3d, the fast path on double points.
+struct exact_plane {
+    std::array<mpq_class, 3> n; // exact normal and offset; for planes through points
+    mpq_class off;              // filled on first use (see exact())
+    bool has_exact = false;
+    bool by_points = false;
+    std::array<vec3, 3> p{};
+    vec3 normal, anchor; // in doubles, for the floating-point filter
+};
+
+/// orient3d with repeated points answered at once: the triangle's own corners lie on
+/// its plane, and the exact stage of orient3d would otherwise prove each such zero.
+inline int o3d(const vec3& a, const vec3& b, const vec3& c, const vec3& d) {
+    if (d == a || d == b || d == c || a == b || a == c || b == c) return 0;
+    return orient3d(a, b, c, d);
+}
+
+inline std::array<mpq_class, 3> cross(const std::array<mpq_class, 3>& u,
+                                      const std::array<mpq_class, 3>& v) {
+    return {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
+}
+inline std::array<mpq_class, 3> minus(const rational_point& a, const rational_point& b) {
+    return {a.x - b.x, a.y - b.y, a.z - b.z};
+}
+inline mpq_class dot(const std::array<mpq_class, 3>& n, const rational_point& x) {
+    return n[0] * x.x + n[1] * x.y + n[2] * x.z;
+}
+
+/// Oriented like orient3d(a, b, c, x): positive where that is positive.
+inline void make_exact(exact_plane& pl) {
+    if (pl.has_exact) return;
+    const rational_point A = to_rational(pl.p[0]), B = to_rational(pl.p[1]),
+                         C = to_rational(pl.p[2]);
+    pl.n = cross(minus(B, A), minus(C, A));
+    pl.off = dot(pl.n, A);
+    pl.has_exact = true;
+}
+
+inline exact_plane plane_through(const vec3& a, const vec3& b, const vec3& c) {
+    exact_plane pl;
+    pl.by_points = true;
+    pl.p = {a, b, c};
+    pl.normal = cross(b - a, c - a);
+    pl.anchor = a;
+    return pl;
+}
+
+/// The plane through edge (e0, e1) of a triangle with normal n, perpendicular to the
+/// triangle; the triangle's third corner is on its negative side.
+inline exact_plane edge_plane(const vec3& e0, const vec3& e1, const std::array<mpq_class, 3>& n,
+                              const vec3& n_approx) {
+    const rational_point A = to_rational(e0), B = to_rational(e1);
+    exact_plane pl;
+    pl.n = cross(minus(B, A), n);
+    pl.off = dot(pl.n, A);
+    pl.normal = cross(e1 - e0, n_approx);
+    pl.anchor = e0;
+    pl.has_exact = true;
+    return pl;
+}
+
+/// Total order on exact points (x, then y, then z): the canonical "smallest corner".
+inline bool lex_less(const rational_point& a, const rational_point& b) {
+    if (int c = cmp(a.x, b.x)) return c < 0;
+    if (int c = cmp(a.y, b.y)) return c < 0;
+    return cmp(a.z, b.z) < 0;
+}
+
+// ---- candidate pairs (triangle, tet) --------------------------------------------------------
+
+/// False only if triangle (a, b, c) certainly misses the closed tet (p0..p3): a
+/// conservative test, since cutting by an extra plane costs tets, not correctness.
+inline bool may_meet(const vec3& a, const vec3& b, const vec3& c, const std::array<vec3, 4>& p) {
+    for (int k = 0; k < 3; ++k) {
+        const double tlo = std::min({a[k], b[k], c[k]}), thi = std::max({a[k], b[k], c[k]});
+        const double plo = std::min({p[0][k], p[1][k], p[2][k], p[3][k]});
+        const double phi = std::max({p[0][k], p[1][k], p[2][k], p[3][k]});
+        if (thi < plo || tlo > phi) return false;
+    }
+    int pos = 0, neg = 0;
+    for (const vec3& q : p) {
+        const int s = o3d(a, b, c, q);
+        pos += s > 0, neg += s < 0;
+    }
+    if (pos == 4 || neg == 4) return false;
+    for (std::uint8_t f = 0; f < 4; ++f) {
+        const auto& fv = tet_local::face_vertices[f];
+        const vec3 &x = p[fv[0]], &y = p[fv[1]], &z = p[fv[2]];
+        const int inside = o3d(x, y, z, p[f]);
+        if (o3d(x, y, z, a) == -inside && o3d(x, y, z, b) == -inside && o3d(x, y, z, c) == -inside)
+            return false;
+    }
+    // Separation by the plane through an edge, perpendicular to the triangle: floating
+    // point with a wide margin, so it only ever drops tets that are clearly outside.
+    const vec3 n = cross(b - a, c - a);
+    const std::array<std::array<const vec3*, 2>, 3> edges{{{&a, &b}, {&b, &c}, {&c, &a}}};
+    for (const auto& e : edges) {
+        const vec3 m = cross(*e[1] - *e[0], n);
+        const double mlen = norm(m);
+        bool outside = true;
+        for (const vec3& q : p) {
+            const vec3 d = q - *e[0];
+            if (!(dot(m, d) > 1e-9 * mlen * norm(d))) {
+                outside = false;
+                break;
+            }
+        }
+        if (outside) return false;
+    }
+    return true;
+}
+
+/// True iff triangle (a, b, c) and the tet (p0..p3) share a piece of positive area:
+/// the triangle's interior meets the tet's interior, or it overlaps one of the tet's
+/// faces. Only such tets need its plane; a triangle that touches a tet at a corner or
+/// along an edge is covered by other tets. Exact: a separating-line test in the
+/// triangle's plane (the tet's section by that plane against the triangle), with the
+/// edge lines of the triangle evaluated in floating point first and exactly (GMP) only
+/// when that is not conclusive.
+inline bool meets_with_area(const vec3& a, const vec3& b, const vec3& c,
+                            const std::array<vec3, 4>& p) {
+    std::array<int, 4> s{};
+    int pos = 0, neg = 0, zero = 0;
+    for (int i = 0; i < 4; ++i) {
+        s[i] = o3d(a, b, c, p[i]);
+        pos += s[i] > 0, neg += s[i] < 0, zero += s[i] == 0;
+    }
+    if ((pos == 0 || neg == 0) && zero != 3) return false;
+    // The lines of the section's sides are the tet's face planes.
+    for (std::uint8_t f = 0; f < 4; ++f) {
+        const auto& fv = tet_local::face_vertices[f];
+        const vec3 &x = p[fv[0]], &y = p[fv[1]], &z = p[fv[2]];
+        const int inside = o3d(x, y, z, p[f]);
+        const int sa = o3d(x, y, z, a), sb = o3d(x, y, z, b), sc = o3d(x, y, z, c);
+        const bool on_face = sa == 0 && sb == 0 && sc == 0; // overlaps it, or not at all
+        if (!on_face && sa != inside && sb != inside && sc != inside) return false;
+    }
+    // The section's corners: tet corners on the plane and crossings of its edges.
+    struct corner {
+        int u, v; // u == v: tet corner u
+    };
+    std::array<corner, 6> sec{};
+    int ns = 0;
+    for (int i = 0; i < 4; ++i)
+        if (s[i] == 0) sec[ns++] = {i, i};
+    for (int i = 0; i < 4; ++i)
+        for (int j = i + 1; j < 4; ++j)
+            if (s[i] * s[j] < 0) sec[ns++] = {i, j};
+    const vec3 n = cross(b - a, c - a);
+    const std::array<std::array<const vec3*, 2>, 3> edges{{{&a, &b}, {&b, &c}, {&c, &a}}};
+    // Exact values, built only when needed.
+    std::optional<std::array<mpq_class, 3>> nq;
+    auto exact_n = [&]() -> const std::array<mpq_class, 3>& {
+        if (!nq)
+            nq =
+                cross(minus(to_rational(b), to_rational(a)), minus(to_rational(c), to_rational(a)));
+        return *nq;
+    };
+    for (const auto& e : edges) {
+        const vec3 &e0 = *e[0], &e1 = *e[1];
+        const vec3 m = cross(e1 - e0, n);
+        std::optional<exact_plane> g; // the edge plane, exactly
+        auto exact_value = [&](const vec3& x) {
+            if (!g) g = edge_plane(e0, e1, exact_n(), n);
+            return mpq_class(dot(g->n, to_rational(x)) - g->off);
+        };
+        // Sign of the edge plane at section corner k.
+        auto side = [&](const corner& k) {
+            if (k.u == k.v) {
+                const vec3& x = p[k.u];
+                if (x == e0 || x == e1) return 0;
+                const vec3 d = x - e0;
+                const double val = dot(m, d), tol = 1e-10 * norm(m) * norm(d);
+                if (val > tol) return 1;
+                if (val < -tol) return -1;
+                return sgn(exact_value(x));
+            }
+            const vec3 &u = p[k.u], &v = p[k.v];
+            const double fu = dot(n, u - a), fv = dot(n, v - a);
+            const double t = fu / (fu - fv);
+            const vec3 x = u + (v - u) * t, d = x - e0;
+            const double val = dot(m, d);
+            const double tol = 1e-8 * norm(m) * (norm(u - e0) + norm(v - e0));
+            if (std::isfinite(t) && val > tol) return 1;
+            if (std::isfinite(t) && val < -tol) return -1;
+            // x = u + t (v - u) with t = fu / (fu - fv): the edge plane's value there has
+            // the sign of (fu gv - fv gu) / (fu - fv).
+            const rational_point A = to_rational(a), U = to_rational(u), V = to_rational(v);
+            const auto& N = exact_n();
+            const mpq_class Fu = dot(N, U) - dot(N, A), Fv = dot(N, V) - dot(N, A);
+            const mpq_class Gu = exact_value(u), Gv = exact_value(v);
+            return sgn(Fu * Gv - Fv * Gu) * sgn(Fu - Fv);
+        };
+        bool separated = true;
+        for (int k = 0; k < ns && separated; ++k) separated = side(sec[k]) >= 0;
+        if (separated) return false;
+    }
+    return true;
+}
+
+/// Face adjacency of a tet list: for (tet t, local face f), the tet across it and its
+/// local face, or invalid_index for boundary faces.
+struct tet_adjacency {
+    std::vector<index_t> across; // 4 per tet: neighbour tet
+    std::vector<std::uint8_t> across_face;
+    std::vector<index_t> star_first, star; // tets around each vertex (CSR)
+};
+
+inline tet_adjacency build_adjacency(std::size_t n_vertices, const std::vector<tet_indices>& tets) {
+    tet_adjacency a;
+    const std::size_t m = tets.size();
+    a.across.assign(4 * m, invalid_index);
+    a.across_face.assign(4 * m, tet_local::none);
+    struct key {
+        std::array<index_t, 3> v;
+        index_t slot;
+        bool operator<(const key& o) const { return v < o.v; }
+    };
+    std::vector<key> keys(4 * m);
+    tbb::parallel_for(std::size_t{0}, m, [&](std::size_t t) {
+        for (std::uint8_t f = 0; f < 4; ++f) {
+            const auto& fv = tet_local::face_vertices[f];
+            std::array<index_t, 3> v{tets[t][fv[0]], tets[t][fv[1]], tets[t][fv[2]]};
+            std::sort(v.begin(), v.end());
+            keys[4 * t + f] = {v, index_t(4 * t + f)};
+        }
+    });
+    std::sort(keys.begin(), keys.end());
+    for (std::size_t i = 0; i + 1 < keys.size(); ++i)
+        if (keys[i].v == keys[i + 1].v) {
+            const index_t x = keys[i].slot, y = keys[i + 1].slot;
+            a.across[x] = y / 4, a.across_face[x] = std::uint8_t(y % 4);
+            a.across[y] = x / 4, a.across_face[y] = std::uint8_t(x % 4);
+            ++i;
+        }
+    a.star_first.assign(n_vertices + 1, 0);
+    for (const auto& t : tets)
+        for (index_t v : t) ++a.star_first[v + 1];
+    for (std::size_t v = 0; v < n_vertices; ++v) a.star_first[v + 1] += a.star_first[v];
+    a.star.resize(4 * m);
+    std::vector<index_t> fill(a.star_first.begin(), a.star_first.end() - 1);
+    for (std::size_t t = 0; t < m; ++t)
+        for (index_t v : tets[t]) a.star[fill[v]++] = index_t(t);
+    return a;
+}
+
+/// The planes that cut one tet: the input triangles that may meet it, grouped by their
+/// (exact) supporting plane. groups of tet t: group_first[t] .. group_first[t + 1];
+/// triangles of group g: group_tris[tri_first[g] .. tri_first[g + 1]) (the first one
+/// represents the plane).
+struct cutting_planes {
+    std::vector<index_t> group_first, tri_first, group_tris;
+};
+
+inline cutting_planes find_cutting_planes(const insertion_input& in, const tet_adjacency& adj) {
+    const auto& V = in.vertices;
+    const std::size_t m = in.tets.size();
+    struct local {
+        std::vector<std::uint32_t> stamp;
+        std::vector<std::pair<index_t, index_t>> pairs; // (tet, triangle)
+        std::vector<index_t> queue;
+    };
+    tbb::enumerable_thread_specific<local> scratch;
+    tbb::parallel_for(
+        tbb::blocked_range<std::size_t>(0, in.triangles.size(), 64),
+        [&](const tbb::blocked_range<std::size_t>& r) {
+            local& L = scratch.local();
+            if (L.stamp.size() != m) L.stamp.assign(m, 0);
+            for (std::size_t ti = r.begin(); ti != r.end(); ++ti) {
+                const auto& tri = in.triangles[ti];
+                const vec3 &a = V[tri[0]], &b = V[tri[1]], &c = V[tri[2]];
+                const std::uint32_t mark = std::uint32_t(ti + 1);
+                L.queue.clear();
+                auto visit = [&](index_t t) {
+                    if (L.stamp[t] == mark) return;
+                    L.stamp[t] = mark;
+                    const auto& tv = in.tets[t];
+                    const std::array<vec3, 4> p{V[tv[0]], V[tv[1]], V[tv[2]], V[tv[3]]};
+                    // Walk the tets that meet the closed triangle (they are connected
+                    // through faces); keep those that share an area with it.
+                    if (!may_meet(a, b, c, p)) return;
+                    L.queue.push_back(t);
+                    if (meets_with_area(a, b, c, p)) L.pairs.emplace_back(t, index_t(ti));
+                };
+                for (index_t s = adj.star_first[tri[0]]; s < adj.star_first[tri[0] + 1]; ++s)
+                    visit(adj.star[s]);
+                for (std::size_t q = 0; q < L.queue.size(); ++q)
+                    for (std::uint8_t f = 0; f < 4; ++f) {
+                        const index_t nb = adj.across[4 * L.queue[q] + f];
+                        if (nb != invalid_index) visit(nb);
+                    }
+            }
+        });
+    std::vector<std::pair<index_t, index_t>> pairs;
+    for (auto& L : scratch) pairs.insert(pairs.end(), L.pairs.begin(), L.pairs.end());
+    std::sort(pairs.begin(), pairs.end());
+
+    cutting_planes cp;
+    cp.group_first.assign(m + 1, 0);
+    cp.tri_first.push_back(0);
+    std::size_t i = 0;
+    std::vector<std::vector<index_t>> groups;
+    for (std::size_t t = 0; t < m; ++t) {
+        groups.clear();
+        for (; i < pairs.size() && pairs[i].first == t; ++i) {
+            const auto& tri = in.triangles[pairs[i].second];
+            bool placed = false;
+            for (auto& g : groups) {
+                const auto& rep = in.triangles[g.front()];
+                const vec3 &a = V[rep[0]], &b = V[rep[1]], &c = V[rep[2]];
+                if (o3d(a, b, c, V[tri[0]]) == 0 && o3d(a, b, c, V[tri[1]]) == 0 &&
+                    o3d(a, b, c, V[tri[2]]) == 0) {
+                    g.push_back(pairs[i].second);
+                    placed = true;
+                    break;
+                }
+            }
+            if (!placed) groups.push_back({pairs[i].second});
+        }
+        for (auto& g : groups) {
+            cp.group_tris.insert(cp.group_tris.end(), g.begin(), g.end());
+            cp.tri_first.push_back(index_t(cp.group_tris.size()));
+        }
+        cp.group_first[t + 1] = cp.group_first[t] + index_t(groups.size());
+    }
+    return cp;
+}
+
+// ---- cutting one tet -----------------------------------------------------------------------
+
+struct point {
+    rational_point q;
+    vec3 approx;            ///< nearest doubles
+    bool is_double = true;  ///< approx is q exactly
+    std::uint8_t faces = 0; ///< bit f: lies on the tet's face f (opposite local vertex f)
+};
+
+/// A convex polygon: corners in cyclic order; support >= 0 is a plane of the tet's
+/// table, support < 0 is the tet's face -1 - support.
+struct polygon {
+    std::vector<std::uint32_t> v;
+    std::int32_t support = 0;
+};
+
+struct cell {
+    std::vector<polygon> facets;                ///< convex facets from the cuts
+    std::vector<std::vector<polygon>> parts;    ///< each facet split along lines
+    std::vector<std::vector<index_t>> on_plane; ///< input triangles in each facet's plane
+};
+
+/// Points a tet hands to its neighbours: on its face f (face >= 0) or on its local edge
+/// (face < 0: edge -1 - face).
+struct exported_point {
+    std::int8_t where;
+    rational_point q;
+};
+
+/// What a tet becomes: tets and tracked faces over its local points.
+struct tet_output {
+    std::vector<point> points; // the first four are the tet's corners
+    std::vector<std::array<std::uint32_t, 4>> tets;
+    std::vector<std::array<std::uint32_t, 3>> tracked;
+    std::vector<std::vector<index_t>> tracked_by;
+};
+
+inline point make_point(const vec3& p, std::uint8_t faces) {
+    return {to_rational(p), p, true, faces};
+}
+inline point make_point(rational_point q, std::uint8_t faces) {
+    point r;
+    r.approx = to_vec3(q);
+    r.is_double = to_rational(r.approx) == q;
+    r.q = std::move(q);
+    r.faces = faces;
+    return r;
+}
+
+class tet_cutter {
+public:
+    tet_cutter(const insertion_input& in, const cutting_planes& cp, const tet_adjacency& adj,
+               index_t tet)
+        : in_(in)
+        , cp_(cp)
+        , adj_(adj)
+        , tet_(tet) {
+        const auto& tv = in.tets[tet];
+        for (std::uint8_t i = 0; i < 4; ++i)
+            pts_.push_back(make_point(in.vertices[tv[i]], std::uint8_t(0xF & ~(1u << i))));
+        cell c;
+        for (std::int32_t f = 0; f < 4; ++f) {
+            const auto& fv = tet_local::face_vertices[std::size_t(f)];
+            c.facets.push_back({{fv[0], fv[1], fv[2]}, -1 - f});
+        }
+        cells_.push_back(std::move(c));
+    }
+
+    /// Phase 1: cut by the tet's planes, split the facets along lines.
+    void cut() {
+        for (index_t g = cp_.group_first[tet_]; g < cp_.group_first[tet_ + 1]; ++g) {
+            const std::uint32_t k = triangle_plane(cp_.group_tris[cp_.tri_first[g]]);
+            group_plane_.emplace_back(g, k);
+            cut_cells(k);
+        }
+        for (cell& c : cells_) {
+            c.parts.resize(c.facets.size());
+            c.on_plane.resize(c.facets.size());
+            for (std::size_t i = 0; i < c.facets.size(); ++i)
+                c.parts[i] = split_facet(c.facets[i], c.on_plane[i]);
+        }
+    }
+
+    /// Points on the tet's faces and edges, for the neighbours.
+    std::vector<exported_point> exports() const {
+        std::vector<exported_point> out;
+        for (std::size_t i = 4; i < pts_.size(); ++i) {
+            const int bits = std::popcount(unsigned(pts_[i].faces));
+            if (bits == 1)
+                out.push_back({std::int8_t(std::countr_zero(unsigned(pts_[i].faces))), pts_[i].q});
+            if (bits == 2) {
+                // On the edge shared by the two faces: the corners not opposite them.
+                std::array<std::uint8_t, 2> e{};
+                int k = 0;
+                for (std::uint8_t v = 0; v < 4; ++v)
+                    if (pts_[i].faces & (1u << v)) e[k++] = v;
+                const std::array<std::uint8_t, 2> ends = complement(e);
+                out.push_back({std::int8_t(-1 - tet_local::edge_of[ends[0]][ends[1]]), pts_[i].q});
+            }
+        }
+        return out;
+    }
+
+    /// Adds a point of a neighbour on the tet's face or edge, unless it is known.
+    void import(const rational_point& q, std::uint8_t faces) {
+        for (const point& p : pts_)
+            if (p.faces == faces && p.q == q) return;
+        pts_.push_back(make_point(q, faces));
+    }
+    static std::uint8_t edge_faces(std::uint8_t local_edge) {
+        const auto& e = tet_local::edge_vertices[local_edge];
+        return std::uint8_t(0xF & ~(1u << e[0]) & ~(1u << e[1]));
+    }
+
+    /// Phase 2: triangulate the polygons with every point on their sides, cone the cells.
+    tet_output finish() {
+        tet_output out;
+        for (const cell& c : cells_) cone(c, out);
+        for (auto& [key, entry] : triangulations_)
+            if (!entry.tracked_by.empty())
+                for (const auto& t : entry.triangles) {
+                    out.tracked.push_back(t);
+                    out.tracked_by.push_back(entry.tracked_by);
+                }
+        out.points = std::move(pts_);
+        return out;
+    }
+
+private:
+    const insertion_input& in_;
+    const cutting_planes& cp_;
+    const tet_adjacency& adj_;
+    index_t tet_;
+    std::vector<point> pts_;
+    std::vector<cell> cells_;
+    std::vector<exact_plane> planes_;
+    std::vector<std::vector<std::int8_t>> signs_; // per plane, per point; 2 = unknown
+    std::unordered_map<std::uint64_t, std::uint32_t> plane_ids_;   // 4 * triangle + (0 | edge + 1)
+    std::unordered_map<std::uint64_t, std::uint32_t> edge_points_; // (a, b, plane)
+    std::vector<std::pair<index_t, std::uint32_t>> group_plane_;
+    struct triangulation {
+        std::vector<std::array<std::uint32_t, 3>> triangles;
+        std::vector<index_t> tracked_by;
+        rational_point inner; // strictly inside the polygon, from its corners alone
+        std::int32_t support = 0;
+    };
+    std::map<std::vector<std::uint32_t>, triangulation> triangulations_;
+    std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> side_points_;
+
+    static std::array<std::uint8_t, 2> complement(std::array<std::uint8_t, 2> e) {
+        std::array<std::uint8_t, 2> r{};
+        int k = 0;
+        for (std::uint8_t v = 0; v < 4; ++v)
+            if (v != e[0] && v != e[1]) r[k++] = v;
+        return r;
+    }
+
+    std::uint32_t add_plane(std::uint64_t key, exact_plane pl) {
+        auto [it, fresh] = plane_ids_.try_emplace(key, std::uint32_t(planes_.size()));
+        if (fresh) {
+            planes_.push_back(std::move(pl));
+            signs_.emplace_back();
+        }
+        return it->second;
+    }
+    std::uint32_t triangle_plane(index_t t) {
+        const auto& tri = in_.triangles[t];
+        const auto& V = in_.vertices;
+        if (auto it = plane_ids_.find(4ull * t); it != plane_ids_.end()) return it->second;
+        return add_plane(4ull * t, plane_through(V[tri[0]], V[tri[1]], V[tri[2]]));
+    }
+    std::uint32_t triangle_edge_plane(index_t t, int e) {
+        const std::uint64_t key = 4ull * t + std::uint64_t(e) + 1;
+        if (auto it = plane_ids_.find(key); it != plane_ids_.end()) return it->second;
+        const auto& tri = in_.triangles[t];
+        const auto& V = in_.vertices;
+        exact_plane& base = planes_[triangle_plane(t)];
+        make_exact(base);
+        const std::array<mpq_class, 3> n = base.n;
+        const vec3 normal = base.normal;
+        return add_plane(key, edge_plane(V[tri[e]], V[tri[(e + 1) % 3]], n, normal));
+    }
+
+    mpq_class exact_value(std::uint32_t k, const rational_point& x) {
+        exact_plane& pl = planes_[k];
+        make_exact(pl);
+        return dot(pl.n, x) - pl.off;
+    }
+
+    int sign(std::uint32_t p, std::uint32_t k) {
+        auto& s = signs_[k];
+        if (s.size() <= p) s.resize(pts_.size(), 2);
+        if (s[p] != 2) return s[p];
+        const exact_plane& pl = planes_[k];
+        const point& x = pts_[p];
+        int r;
+        if (pl.by_points && x.is_double) {
+            r = o3d(pl.p[0], pl.p[1], pl.p[2], x.approx);
+        } else {
+            // Floating-point filter with a wide margin (the normal, the point and the
+            // product are each off by a few ulps), then GMP.
+            const vec3 d = x.approx - pl.anchor;
+            const double val = dot(pl.normal, d);
+            const double tol = 1e-10 * norm(pl.normal) * (norm(d) + norm(x.approx));
+            if (val > tol)
+                r = 1;
+            else if (val < -tol)
+                r = -1;
+            else
+                r = sgn(exact_value(k, x.q));
+        }
+        s[p] = std::int8_t(r);
+        return r;
+    }
+
+    /// The point where plane k crosses segment (a, b), whose ends are strictly on
+    /// opposite sides.
+    std::uint32_t crossing(std::uint32_t a, std::uint32_t b, std::uint32_t k) {
+        const std::uint64_t key =
+            (std::uint64_t(std::min(a, b)) << 42) | (std::uint64_t(std::max(a, b)) << 20) | k;
+        if (auto it = edge_points_.find(key); it != edge_points_.end()) return it->second;
+        const rational_point &A = pts_[a].q, &B = pts_[b].q;
+        const mpq_class fa = exact_value(k, A), fb = exact_value(k, B);
+        const mpq_class s = fa / (fa - fb);
+        rational_point x{A.x + s * (B.x - A.x), A.y + s * (B.y - A.y), A.z + s * (B.z - A.z)};
+        const std::uint32_t id = std::uint32_t(pts_.size());
+        pts_.push_back(make_point(std::move(x), std::uint8_t(pts_[a].faces & pts_[b].faces)));
+        signs_[k].resize(pts_.size(), 2);
+        signs_[k][id] = 0;
+        edge_points_.emplace(key, id);
+        return id;
+    }
+
+    /// Splits a convex polygon by plane k. Returns false (and leaves pos/neg alone) when
+    /// the plane does not separate two of its corners.
+    bool split(const polygon& P, std::uint32_t k, polygon& pos, polygon& neg, int& side) {
+        bool has_pos = false, has_neg = false;
+        for (std::uint32_t v : P.v) {
+            const int s = sign(v, k);
+            has_pos |= s > 0, has_neg |= s < 0;
+        }
+        side = has_pos ? 1 : (has_neg ? -1 : 0);
+        if (!(has_pos && has_neg)) return false;
+        pos.v.clear(), neg.v.clear();
+        pos.support = neg.support = P.support;
+        const std::size_t n = P.v.size();
+        for (std::size_t i = 0; i < n; ++i) {
+            const std::uint32_t a = P.v[i], b = P.v[(i + 1) % n];
+            const int sa = sign(a, k), sb = sign(b, k);
+            if (sa >= 0) pos.v.push_back(a);
+            if (sa <= 0) neg.v.push_back(a);
+            if (sa * sb < 0) {
+                const std::uint32_t x = crossing(a, b, k);
+                pos.v.push_back(x), neg.v.push_back(x);
+            }
+        }
+        return true;
+    }
+
+    /// Orders points of a convex polygon on plane k (all corners) cyclically.
+    void order_on_plane(std::vector<std::uint32_t>& v, const std::array<mpq_class, 3>& n) {
+        // Drop the axis where the normal is largest: an exact affine bijection onto 2D.
+        int drop = 0;
+        for (int a = 1; a < 3; ++a)
+            if (cmp(abs(n[a]), abs(n[drop])) > 0) drop = a;
+        const int u = (drop + 1) % 3, w = (drop + 2) % 3;
+        auto first = std::min_element(v.begin(), v.end(), [&](std::uint32_t a, std::uint32_t b) {
+            const auto &A = pts_[a].q, &B = pts_[b].q;
+            if (int c = cmp(A[u], B[u])) return c < 0;
+            return cmp(A[w], B[w]) < 0;
+        });
+        std::iter_swap(v.begin(), first);
+        const rational_point& o = pts_[v[0]].q;
+        std::sort(v.begin() + 1, v.end(), [&](std::uint32_t a, std::uint32_t b) {
+            const auto &A = pts_[a].q, &B = pts_[b].q;
+            return sgn((A[u] - o[u]) * (B[w] - o[w]) - (A[w] - o[w]) * (B[u] - o[u])) > 0;
+        });
+    }
+
+    void cut_cells(std::uint32_t k) {
+        std::vector<cell> next;
+        next.reserve(cells_.size() * 2);
+        for (cell& c : cells_) {
+            bool has_pos = false, has_neg = false;
+            for (const polygon& f : c.facets)
+                for (std::uint32_t v : f.v) {
+                    const int s = sign(v, k);
+                    has_pos |= s > 0, has_neg |= s < 0;
+                }
+            if (!(has_pos && has_neg)) {
+                next.push_back(std::move(c));
+                continue;
+            }
+            cell P, N;
+            polygon pos, neg;
+            std::vector<std::uint32_t> section;
+            for (const polygon& f : c.facets) {
+                int side = 0;
+                if (split(f, k, pos, neg, side)) {
+                    P.facets.push_back(pos), N.facets.push_back(neg);
+                } else {
+                    (side > 0 ? P : N).facets.push_back(f);
+                }
+            }
+            for (const polygon& f : P.facets)
+                for (std::uint32_t v : f.v)
+                    if (sign(v, k) == 0 &&
+                        std::find(section.begin(), section.end(), v) == section.end())
+                        section.push_back(v);
+            make_exact(planes_[k]);
+            order_on_plane(section, planes_[k].n);
+            const polygon cap{section, std::int32_t(k)};
+            P.facets.push_back(cap), N.facets.push_back(cap);
+            next.push_back(std::move(P)), next.push_back(std::move(N));
+        }
+        cells_ = std::move(next);
+    }
+
+    /// The lines that split a facet, as planes crossing its plane: edge planes of the
+    /// triangles on it; on a face of the tet, also the neighbour's cutting planes.
+    std::vector<std::uint32_t> lines_for(const polygon& f, std::vector<index_t>& on_plane) {
+        std::vector<std::uint32_t> lines;
+        auto add_edges = [&](index_t t) {
+            on_plane.push_back(t);
+            for (int e = 0; e < 3; ++e) lines.push_back(triangle_edge_plane(t, e));
+        };
+        if (f.support >= 0) {
+            for (const auto& [g, k] : group_plane_)
+                if (k == std::uint32_t(f.support))
+                    for (index_t i = cp_.tri_first[g]; i < cp_.tri_first[g + 1]; ++i)
+                        add_edges(cp_.group_tris[i]);
+            return lines;
+        }
+        const std::uint8_t face = std::uint8_t(-1 - f.support);
+        const auto& tv = in_.tets[tet_];
+        const auto& fv = tet_local::face_vertices[face];
+        const vec3 &x = in_.vertices[tv[fv[0]]], &y = in_.vertices[tv[fv[1]]],
+                   &z = in_.vertices[tv[fv[2]]];
+        auto on_face = [&](index_t t) {
+            const auto& tri = in_.triangles[t];
+            const vec3 &a = in_.vertices[tri[0]], &b = in_.vertices[tri[1]],
+                       &c = in_.vertices[tri[2]];
+            return o3d(a, b, c, x) == 0 && o3d(a, b, c, y) == 0 && o3d(a, b, c, z) == 0;
+        };
+        auto groups_of = [&](index_t t, bool neighbour) {
+            for (index_t g = cp_.group_first[t]; g < cp_.group_first[t + 1]; ++g) {
+                const index_t rep = cp_.group_tris[cp_.tri_first[g]];
+                if (on_face(rep)) {
+                    for (index_t i = cp_.tri_first[g]; i < cp_.tri_first[g + 1]; ++i)
+                        add_edges(cp_.group_tris[i]);
+                } else if (neighbour) {
+                    lines.push_back(triangle_plane(rep));
+                }
+            }
+        };
+        groups_of(tet_, false);
+        const index_t nb = adj_.across[4 * tet_ + face];
+        if (nb != invalid_index) groups_of(nb, true);
+        std::sort(on_plane.begin(), on_plane.end());
+        on_plane.erase(std::unique(on_plane.begin(), on_plane.end()), on_plane.end());
+        return lines;
+    }
+
+    std::vector<polygon> split_facet(const polygon& f, std::vector<index_t>& on_plane) {
+        const std::vector<std::uint32_t> lines = lines_for(f, on_plane);
+        std::vector<polygon> parts{f}, next;
+        polygon pos, neg;
+        for (std::uint32_t k : lines) {
+            next.clear();
+            for (const polygon& p : parts) {
+                int side = 0;
+                if (split(p, k, pos, neg, side))
+                    next.push_back(pos), next.push_back(neg);
+                else
+                    next.push_back(p);
+            }
+            std::swap(parts, next);
+        }
+        return parts;
+    }
+
+    // ---- phase 2 ----
+
+    /// Points strictly inside segment (a, b), in order from a.
+    const std::vector<std::uint32_t>& side_points(std::uint32_t a, std::uint32_t b) {
+        const std::uint64_t key = (std::uint64_t(std::min(a, b)) << 32) | std::max(a, b);
+        auto [it, fresh] = side_points_.try_emplace(key);
+        std::vector<std::uint32_t>& found = it->second;
+        if (fresh) {
+            const std::uint32_t lo = std::min(a, b), hi = std::max(a, b);
+            const point &A = pts_[lo], &B = pts_[hi];
+            const std::uint8_t mask = A.faces & B.faces;
+            int axis = 0; // an axis along which the segment is not constant
+            for (int k = 0; k < 3; ++k)
+                if (A.q[k] != B.q[k]) axis = k;
+            const bool up = A.q[axis] < B.q[axis];
+            vec3 blo, bhi;
+            for (int k = 0; k < 3; ++k) {
+                const double pad = 1e-9 * (std::abs(A.approx[k]) + std::abs(B.approx[k])) + 1e-300;
+                blo[k] = std::min(A.approx[k], B.approx[k]) - pad;
+                bhi[k] = std::max(A.approx[k], B.approx[k]) + pad;
+            }
+            const auto d = minus(B.q, A.q);
+            for (std::uint32_t w = 0; w < pts_.size(); ++w) {
+                if (w == lo || w == hi) continue;
+                const point& W = pts_[w];
+                if ((W.faces & mask) != mask) continue;
+                bool in_box = true;
+                for (int k = 0; k < 3 && in_box; ++k)
+                    in_box = W.approx[k] >= blo[k] && W.approx[k] <= bhi[k];
+                if (!in_box) continue;
+                const int lo_side = cmp(W.q[axis], A.q[axis]), hi_side = cmp(W.q[axis], B.q[axis]);
+                if (up ? !(lo_side > 0 && hi_side < 0) : !(lo_side < 0 && hi_side > 0)) continue;
+                const auto c = cross(d, minus(W.q, A.q));
+                if (sgn(c[0]) || sgn(c[1]) || sgn(c[2])) continue;
+                found.push_back(w);
+            }
+            std::sort(found.begin(), found.end(), [&](std::uint32_t x, std::uint32_t y) {
+                return up ? pts_[x].q[axis] < pts_[y].q[axis] : pts_[x].q[axis] > pts_[y].q[axis];
+            });
+        }
+        return found;
+    }
+
+    std::uint32_t add_point(rational_point q, std::uint8_t faces) {
+        pts_.push_back(make_point(std::move(q), faces));
+        return std::uint32_t(pts_.size() - 1);
+    }
+
+    static rational_point average(const std::vector<const rational_point*>& ps,
+                                  const std::vector<int>& weights) {
+        rational_point r{0, 0, 0};
+        int total = 0;
+        for (std::size_t i = 0; i < ps.size(); ++i) {
+            for (int k = 0; k < 3; ++k) r[k] += weights[i] * (*ps[i])[k];
+            total += weights[i];
+        }
+        for (int k = 0; k < 3; ++k) r[k] /= total;
+        return r;
+    }
+
+    bool inside_triangle(const rational_point& x, const vec3& approx, index_t t) {
+        for (int e = 0; e < 3; ++e) {
+            const std::uint32_t k = triangle_edge_plane(t, e);
+            const exact_plane& pl = planes_[k];
+            const vec3 d = approx - pl.anchor;
+            const double val = dot(pl.normal, d);
+            const double tol = 1e-10 * norm(pl.normal) * (norm(d) + norm(approx));
+            if (val > tol) return false;
+            if (val < -tol) continue;
+            if (sgn(exact_value(k, x)) > 0) return false;
+        }
+        return true;
+    }
+
+    /// Triangulation of a facet part, the same for every tet and cell that holds it.
+    const triangulation& triangulate(const polygon& P, const std::vector<index_t>& on_plane) {
+        std::vector<std::uint32_t> key = P.v;
+        std::sort(key.begin(), key.end());
+        auto [it, fresh] = triangulations_.try_emplace(std::move(key));
+        triangulation& T = it->second;
+        if (!fresh) return T;
+        const std::size_t m = P.v.size();
+        // Canonical corner cycle: from the smallest corner towards its smaller neighbour.
+        std::size_t s = 0;
+        for (std::size_t i = 1; i < m; ++i)
+            if (smaller(P.v[i], P.v[s])) s = i;
+        const bool forward = smaller(P.v[(s + 1) % m], P.v[(s + m - 1) % m]);
+        std::vector<std::uint32_t> corners(m);
+        for (std::size_t i = 0; i < m; ++i)
+            corners[i] = P.v[forward ? (s + i) % m : (s + m - i) % m];
+        // Boundary with every point on the sides; sides_clear[i]: side (i, i + 1) has none.
+        std::vector<std::uint32_t> boundary;
+        std::vector<bool> clear(m);
+        for (std::size_t i = 0; i < m; ++i) {
+            boundary.push_back(corners[i]);
+            const auto& extra = side_points(corners[i], corners[(i + 1) % m]);
+            clear[i] = extra.empty();
+            if (corners[i] < corners[(i + 1) % m])
+                boundary.insert(boundary.end(), extra.begin(), extra.end());
+            else
+                boundary.insert(boundary.end(), extra.rbegin(), extra.rend());
+        }
+        // An interior point from the corners alone: the midpoint of a diagonal, or a
+        // weighted centre of a triangle.
+        std::uint8_t mask = 0xF;
+        for (std::uint32_t c : corners) mask &= pts_[c].faces;
+        rational_point inner =
+            m >= 4 ? average({&pts_[corners[0]].q, &pts_[corners[m / 2]].q}, {1, 1})
+                   : average({&pts_[corners[0]].q, &pts_[corners[1]].q, &pts_[corners[2]].q},
+                             {2, 1, 1});
+        if (!on_plane.empty()) {
+            const vec3 approx = to_vec3(inner);
+            for (index_t t : on_plane)
+                if (inside_triangle(inner, approx, t)) T.tracked_by.push_back(t);
+        }
+        T.support = P.support;
+        // Fan from the smallest corner whose two sides hold no extra point, else from an
+        // interior Steiner point.
+        std::size_t apex = m;
+        for (std::size_t i = 0; i < m && apex == m; ++i)
+            if (clear[i] && clear[(i + m - 1) % m]) apex = i;
+        const std::size_t nb = boundary.size();
+        if (apex < m) {
+            const std::uint32_t a = corners[apex];
+            const auto at =
+                std::size_t(std::find(boundary.begin(), boundary.end(), a) - boundary.begin());
+            for (std::size_t i = 1; i + 1 < nb; ++i)
+                T.triangles.push_back({a, boundary[(at + i) % nb], boundary[(at + i + 1) % nb]});
+            T.inner = std::move(inner);
+        } else {
+            T.inner = inner;
+            const std::uint32_t c = add_point(std::move(inner), mask);
+            for (std::size_t i = 0; i < nb; ++i)
+                T.triangles.push_back({c, boundary[i], boundary[(i + 1) % nb]});
+        }
+        return T;
+    }
+
+    /// lex_less on two local points, on doubles when both are doubles.
+    bool smaller(std::uint32_t a, std::uint32_t b) const {
+        const point &A = pts_[a], &B = pts_[b];
+        if (A.is_double && B.is_double)
+            return std::tie(A.approx.x, A.approx.y, A.approx.z) <
+                   std::tie(B.approx.x, B.approx.y, B.approx.z);
+        return lex_less(A.q, B.q);
+    }
+
+    bool on_support(std::uint32_t x, std::int32_t support) {
+        if (support < 0) return (pts_[x].faces >> (-1 - support)) & 1u;
+        return sign(x, std::uint32_t(support)) == 0;
+    }
+
+    int orient(std::uint32_t a, std::uint32_t b, std::uint32_t c, std::uint32_t d) const {
+        const point &A = pts_[a], &B = pts_[b], &C = pts_[c], &D = pts_[d];
+        if (A.is_double && B.is_double && C.is_double && D.is_double)
+            return orient3d(A.approx, B.approx, C.approx, D.approx);
+        return idas::detail::predicates::orient3d_rational_mpz(A.q, B.q, C.q, D.q);
+    }
+
+    void emit(std::uint32_t apex, const std::array<std::uint32_t, 3>& t, tet_output& out) const {
+        const int s = orient(t[0], t[1], t[2], apex);
+        if (s == 0) throw std::logic_error("triangle insertion: a cone made a flat tet");
+        out.tets.push_back(s > 0 ? std::array<std::uint32_t, 4>{t[0], t[1], t[2], apex}
+                                 : std::array<std::uint32_t, 4>{t[0], t[2], t[1], apex});
+    }
+
+    /// Tets of a convex cell: a cone from its smallest corner that sees every boundary
+    /// triangle not containing it, else from a point inside.
+    void cone(const cell& c, tet_output& out) {
+        std::vector<const triangulation*> parts;
+        for (std::size_t i = 0; i < c.facets.size(); ++i)
+            for (const polygon& p : c.parts[i]) parts.push_back(&triangulate(p, c.on_plane[i]));
+        std::vector<std::uint32_t> corners;
+        for (const polygon& f : c.facets) corners.insert(corners.end(), f.v.begin(), f.v.end());
+        std::sort(corners.begin(), corners.end());
+        corners.erase(std::unique(corners.begin(), corners.end()), corners.end());
+        std::sort(corners.begin(), corners.end(),
+                  [&](std::uint32_t a, std::uint32_t b) { return smaller(a, b); });
+        for (std::uint32_t x : corners) {
+            bool sees_all = true;
+            for (const triangulation* T : parts) {
+                if (!on_support(x, T->support)) continue;
+                for (const auto& t : T->triangles)
+                    if (t[0] != x && t[1] != x && t[2] != x) sees_all = false;
+                if (!sees_all) break;
+            }
+            if (!sees_all) continue;
+            for (const triangulation* T : parts)
+                if (!on_support(x, T->support))
+                    for (const auto& t : T->triangles) emit(x, t, out);
+            return;
+        }
+        // No corner works: the midpoint of the smallest corner and a point inside a facet
+        // part not on its plane is inside the cell.
+        const std::uint32_t x = corners.front();
+        for (const triangulation* T : parts)
+            if (!on_support(x, T->support)) {
+                const std::uint32_t s = add_point(average({&pts_[x].q, &T->inner}, {1, 1}), 0);
+                for (const triangulation* U : parts)
+                    for (const auto& t : U->triangles) emit(s, t, out);
+                return;
+            }
+        throw std::logic_error("triangle insertion: a cell with every facet through one corner");
+    }
+};
+
+/// Vertices of the result that the insertion created, found by exact position.
+class new_vertex_index {
+public:
+    explicit new_vertex_index(inserted_mesh& m)
+        : m_(m) {}
+    index_t find_or_add(const point& p) {
+        auto& ids = by_approx_[key{p.approx.x, p.approx.y, p.approx.z}];
+        for (index_t id : ids)
+            if (p.is_double ? m_.is_exact_double(id)
+                            : (!m_.is_exact_double(id) && m_.exact.at(id) == p.q))
+                return id;
+        const index_t id = index_t(m_.vertices.size());
+        m_.vertices.push_back(p.approx);
+        if (!p.is_double) m_.exact.emplace(id, p.q);
+        ids.push_back(id);
+        return id;
+    }
+
+private:
+    struct key {
+        double x, y, z;
+        bool operator==(const key&) const = default;
+    };
+    struct key_hash {
+        std::size_t operator()(const key& k) const noexcept {
+            std::uint64_t h = 1469598103934665603ull;
+            for (double d : {k.x, k.y, k.z}) {
+                std::uint64_t b = 0;
+                std::memcpy(&b, &d, sizeof b);
+                h = (h ^ b) * 1099511628211ull;
+                h ^= h >> 29;
+            }
+            return std::size_t(h);
+        }
+    };
+    inserted_mesh& m_;
+    std::unordered_map<key, std::vector<index_t>, key_hash> by_approx_;
+};
+
+} // namespace detail
+
+/// Inserts every triangle of `in` into its background tets, exactly. Throws
+/// std::invalid_argument for indices out of range; the background is trusted to be a
+/// valid positively oriented tet mesh containing every triangle.
+inline inserted_mesh insert_triangles(const insertion_input& in) {
+    using namespace detail;
+    const std::size_t n = in.vertices.size(), m = in.tets.size();
+    for (const auto& t : in.triangles)
+        for (index_t v : t)
+            if (v >= n)
+                throw std::invalid_argument("triangle insertion: corner index out of range");
+    const tet_adjacency adj = build_adjacency(n, in.tets);
+    const cutting_planes cp = find_cutting_planes(in, adj);
+    auto has_planes = [&](index_t t) { return cp.group_first[t + 1] > cp.group_first[t]; };
+
+    // Phase 1: the tets with planes of their own or of a face neighbour.
+    std::vector<index_t> first_list, slot(m, invalid_index);
+    for (index_t t = 0; t < m; ++t) {
+        bool touched = has_planes(t);
+        for (std::uint8_t f = 0; f < 4 && !touched; ++f) {
+            const index_t nb = adj.across[4 * t + f];
+            touched = nb != invalid_index && has_planes(nb);
+        }
+        if (touched) slot[t] = index_t(first_list.size()), first_list.push_back(t);
+    }
+    std::vector<std::unique_ptr<tet_cutter>> cutters(first_list.size());
+    std::vector<std::vector<exported_point>> exports(first_list.size());
+    tbb::parallel_for(std::size_t{0}, first_list.size(), [&](std::size_t i) {
+        cutters[i] = std::make_unique<tet_cutter>(in, cp, adj, first_list[i]);
+        cutters[i]->cut();
+        exports[i] = cutters[i]->exports();
+    });
+
+    // Points on edges, by edge, for every tet around it.
+    auto edge_key = [&](index_t t, std::uint8_t le) {
+        const auto& e = tet_local::edge_vertices[le];
+        const index_t a = in.tets[t][e[0]], b = in.tets[t][e[1]];
+        return (std::uint64_t(std::min(a, b)) << 32) | std::max(a, b);
+    };
+    std::vector<std::pair<std::uint64_t, const rational_point*>> on_edges;
+    for (std::size_t i = 0; i < first_list.size(); ++i)
+        for (const auto& x : exports[i])
+            if (x.where < 0)
+                on_edges.emplace_back(edge_key(first_list[i], std::uint8_t(-1 - x.where)), &x.q);
+    std::stable_sort(on_edges.begin(), on_edges.end(),
+                     [](const auto& a, const auto& b) { return a.first < b.first; });
+    auto edge_range = [&](std::uint64_t key) {
+        return std::equal_range(on_edges.begin(), on_edges.end(),
+                                std::pair<std::uint64_t, const rational_point*>{key, nullptr},
+                                [](const auto& a, const auto& b) { return a.first < b.first; });
+    };
+
+    // Phase 2: those and every tet with a point on an edge.
+    std::vector<index_t> second_list;
+    for (index_t t = 0; t < m; ++t) {
+        bool touched = slot[t] != invalid_index;
+        for (std::uint8_t le = 0; le < 6 && !touched; ++le) {
+            auto [lo, hi] = edge_range(edge_key(t, le));
+            touched = lo != hi;
+        }
+        if (touched) second_list.push_back(t);
+    }
+    std::vector<tet_output> outputs(second_list.size());
+    tbb::parallel_for(std::size_t{0}, second_list.size(), [&](std::size_t i) {
+        const index_t t = second_list[i];
+        std::unique_ptr<tet_cutter> own;
+        tet_cutter* c = nullptr;
+        if (slot[t] != invalid_index) {
+            c = cutters[slot[t]].get();
+        } else {
+            own = std::make_unique<tet_cutter>(in, cp, adj, t);
+            own->cut();
+            c = own.get();
+        }
+        for (std::uint8_t f = 0; f < 4; ++f) {
+            const index_t nb = adj.across[4 * t + f];
+            if (nb == invalid_index || slot[nb] == invalid_index) continue;
+            for (const auto& x : exports[slot[nb]])
+                if (x.where == std::int8_t(adj.across_face[4 * t + f]))
+                    c->import(x.q, std::uint8_t(1u << f));
+        }
+        for (std::uint8_t le = 0; le < 6; ++le) {
+            auto [lo, hi] = edge_range(edge_key(t, le));
+            for (auto it = lo; it != hi; ++it) c->import(*it->second, tet_cutter::edge_faces(le));
+        }
+        outputs[i] = c->finish();
+        if (own == nullptr) cutters[slot[t]].reset();
+    });
+
+    // Assembly, in tet order: the numbering does not depend on the threads.
+    inserted_mesh r;
+    r.vertices = in.vertices;
+    new_vertex_index index(r);
+    std::map<std::array<index_t, 3>, std::size_t> tracked_at;
+    std::vector<std::vector<index_t>> tags;
+    std::vector<index_t> local;
+    std::size_t next = 0;
+    for (index_t t = 0; t < m; ++t) {
+        if (next < second_list.size() && second_list[next] == t) {
+            const tet_output& o = outputs[next++];
+            local.assign(o.points.size(), invalid_index);
+            for (std::uint8_t i = 0; i < 4; ++i) local[i] = in.tets[t][i];
+            auto global = [&](std::uint32_t p) {
+                if (local[p] == invalid_index) local[p] = index.find_or_add(o.points[p]);
+                return local[p];
+            };
+            for (const auto& x : o.tets)
+                r.tets.push_back({global(x[0]), global(x[1]), global(x[2]), global(x[3])});
+            for (std::size_t k = 0; k < o.tracked.size(); ++k) {
+                tri_indices f{global(o.tracked[k][0]), global(o.tracked[k][1]),
+                              global(o.tracked[k][2])};
+                std::array<index_t, 3> key = f;
+                std::sort(key.begin(), key.end());
+                auto [it, fresh] = tracked_at.try_emplace(key, r.tracked.size());
+                if (fresh) r.tracked.push_back(f), tags.emplace_back();
+                auto& tg = tags[it->second];
+                tg.insert(tg.end(), o.tracked_by[k].begin(), o.tracked_by[k].end());
+            }
+            (slot[t] != invalid_index ? r.cut_tets : r.refined_tets) +=
+                cp.group_first[t + 1] > cp.group_first[t] ? 1 : 0;
+        } else {
+            r.tets.push_back(in.tets[t]);
+        }
+    }
+    r.cut_tets = 0;
+    for (index_t t = 0; t < m; ++t) r.cut_tets += has_planes(t) ? 1 : 0;
+    r.refined_tets = second_list.size() - r.cut_tets;
+    for (auto& tg : tags) {
+        std::sort(tg.begin(), tg.end());
+        tg.erase(std::unique(tg.begin(), tg.end()), tg.end());
+        r.tracked_by.insert(r.tracked_by.end(), tg.begin(), tg.end());
+        r.tracked_first.push_back(index_t(r.tracked_by.size()));
+    }
+    return r;
+}
+
+// ---- checks and rounding --------------------------------------------------------------------
+
+/// Exact orient3d of a tet of the result.
+inline int orientation(const inserted_mesh& r, const tet_indices& t) {
+    bool doubles = true;
+    for (index_t v : t) doubles = doubles && r.is_exact_double(v);
+    if (doubles)
+        return orient3d(r.vertices[t[0]], r.vertices[t[1]], r.vertices[t[2]], r.vertices[t[3]]);
+    return idas::detail::predicates::orient3d_rational_mpz(
+        r.exact_position(t[0]), r.exact_position(t[1]), r.exact_position(t[2]),
+        r.exact_position(t[3]));
+}
+
+/// Tets whose exact orientation is not positive.
+inline std::size_t count_inverted(const inserted_mesh& r) {
+    std::atomic<std::size_t> bad{0};
+    tbb::parallel_for(std::size_t{0}, r.tets.size(), [&](std::size_t i) {
+        if (orientation(r, r.tets[i]) <= 0) bad.fetch_add(1, std::memory_order_relaxed);
+    });
+    return bad.load();
+}
+
+/// Rounds every rational vertex to the nearest doubles whose tets all stay positive
+/// (exact orient3d), repeating while some vertex could be rounded. Returns how many
+/// vertices stay rational.
+inline std::size_t round_vertices(inserted_mesh& r) {
+    const std::size_t n = r.vertices.size();
+    std::vector<index_t> first(n + 1, 0), star(4 * r.tets.size());
+    for (const auto& t : r.tets)
+        for (index_t v : t) ++first[v + 1];
+    for (std::size_t v = 0; v < n; ++v) first[v + 1] += first[v];
+    {
+        std::vector<index_t> fill(first.begin(), first.end() - 1);
+        for (std::size_t t = 0; t < r.tets.size(); ++t)
+            for (index_t v : r.tets[t]) star[fill[v]++] = index_t(t);
+    }
+    std::vector<index_t> pending;
+    for (const auto& [v, q] : r.exact) pending.push_back(v);
+    std::sort(pending.begin(), pending.end());
+    for (bool progress = true; progress && !pending.empty();) {
+        progress = false;
+        std::vector<index_t> still;
+        for (index_t v : pending) {
+            const rational_point q = r.exact.at(v);
+            r.exact.erase(v); // try the nearest doubles (r.vertices[v])
+            bool ok = true;
+            for (index_t s = first[v]; s < first[v + 1] && ok; ++s)
+                ok = orientation(r, r.tets[star[s]]) > 0;
+            if (ok) {
+                progress = true;
+            } else {
+                r.exact.emplace(v, q);
+                still.push_back(v);
+            }
+        }
+        pending = std::move(still);
+    }
+    return r.exact.size();
+}
+
+} // namespace idas::insertion

@@ -1,0 +1,272 @@
+// TetWild-style tetrahedral meshing of a triangle soup, part 1: the soup cleaned, a
+// Delaunay background mesh of its vertices and a box around them (CGAL), every triangle
+// inserted exactly (algorithms/triangle_insertion.hpp), rational vertices rounded where
+// every tet stays positive, and each tet labelled inside or outside by the generalized
+// winding number of the soup at its centroid.
+//
+// Nothing is dropped from the mesh: outside tets are kept with their label (the quality
+// optimization needs them), and the tracked surface says which faces cover the input.
+#pragma once
+
+#include <idas/algorithms/triangle_insertion.hpp>
+#include <idas/algorithms/winding_number.hpp>
+#include <idas/cgal/delaunay.hpp>
+#include <idas/mesh/geometry_range.hpp>
+
+#include <tbb/parallel_for.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+namespace idas::tetmesh {
+
+struct options {
+    /// Envelope half-width, relative to the bounding-box diagonal unless `absolute`. The
+    /// insertion is exact, so only the optimization (the next stage) uses it.
+    double epsilon = 1e-3;
+    /// Target edge length, relative to the diagonal unless `absolute`: the spacing of the
+    /// points on the background box.
+    double edge_length = 1.0 / 20.0;
+    bool absolute = false;
+};
+
+/// What the input held and what each stage did, with its seconds.
+struct report {
+    std::size_t input_vertices = 0, input_faces = 0;
+    std::size_t welded_vertices = 0;   ///< exact duplicates merged
+    std::size_t degenerate_faces = 0;  ///< collinear corners (exact), dropped
+    std::size_t repeated_faces = 0;    ///< same corners as an earlier face, dropped
+    std::size_t triangles = 0;         ///< inserted: faces left after cleaning
+    std::size_t covered_triangles = 0; ///< exactly covered by tracked faces (checked)
+    std::size_t background_tets = 0, cut_tets = 0, refined_tets = 0;
+    std::size_t tets = 0, vertices = 0, inside_tets = 0, tracked_faces = 0;
+    std::size_t rational_vertices_created = 0, rational_vertices_left = 0;
+    std::size_t inverted_tets = 0; ///< exact orient3d <= 0 (always 0)
+    double diagonal = 0, epsilon = 0, edge_length = 0;
+    double seconds_cleaning = 0, seconds_delaunay = 0, seconds_insertion = 0, seconds_rounding = 0,
+           seconds_winding = 0, seconds_check = 0;
+};
+
+struct result {
+    insertion::inserted_mesh mesh;
+    std::vector<std::uint8_t> inside; ///< per tet: winding number above 1/2
+    std::vector<double> winding;      ///< per tet, at its centroid
+    report stats;
+};
+
+/// The input soup after cleaning: welded, without degenerate or repeated faces.
+struct clean_soup {
+    std::vector<vec3> vertices;
+    std::vector<tri_indices> faces;
+};
+
+namespace detail {
+
+inline double seconds_since(std::chrono::steady_clock::time_point t0) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+/// Collinear corners, decided exactly: all three coordinate projections are flat.
+inline bool degenerate(const vec3& a, const vec3& b, const vec3& c) {
+    return orient2d({a.x, a.y}, {b.x, b.y}, {c.x, c.y}) == 0 &&
+           orient2d({a.y, a.z}, {b.y, b.z}, {c.y, c.z}) == 0 &&
+           orient2d({a.z, a.x}, {b.z, b.x}, {c.z, c.x}) == 0;
+}
+
+} // namespace detail
+
+/// Welds exact duplicates and drops degenerate and repeated faces (counted in `r`).
+/// Throws input_error naming `source` for non-finite or out-of-range coordinates, and for
+/// a soup with no face of positive area.
+inline clean_soup clean(const std::vector<vec3>& vertices, const std::vector<tri_indices>& faces,
+                        const std::string& source, report& r) {
+    r.input_vertices = vertices.size(), r.input_faces = faces.size();
+    if (faces.empty()) throw input_error(source + ": the input has no triangles");
+    if (auto why = check_geometry_range(vertices)) throw input_error(source + ": " + *why);
+    for (const auto& f : faces)
+        for (index_t v : f)
+            if (v >= vertices.size()) throw input_error(source + ": a face index is out of range");
+    clean_soup s;
+    std::map<std::array<double, 3>, index_t> id;
+    std::vector<index_t> remap(vertices.size());
+    for (std::size_t i = 0; i < vertices.size(); ++i) {
+        auto [it, fresh] = id.try_emplace({vertices[i].x, vertices[i].y, vertices[i].z},
+                                          index_t(s.vertices.size()));
+        if (fresh) s.vertices.push_back(vertices[i]);
+        remap[i] = it->second;
+    }
+    r.welded_vertices = vertices.size() - s.vertices.size();
+    std::map<std::array<index_t, 3>, bool> seen;
+    for (const auto& f : faces) {
+        const tri_indices g{remap[f[0]], remap[f[1]], remap[f[2]]};
+        if (g[0] == g[1] || g[1] == g[2] || g[0] == g[2] ||
+            detail::degenerate(s.vertices[g[0]], s.vertices[g[1]], s.vertices[g[2]])) {
+            ++r.degenerate_faces;
+            continue;
+        }
+        std::array<index_t, 3> key = g;
+        std::sort(key.begin(), key.end());
+        if (!seen.emplace(key, true).second) {
+            ++r.repeated_faces;
+            continue;
+        }
+        s.faces.push_back(g);
+    }
+    if (s.faces.empty())
+        throw input_error(source + ": every one of the " + std::to_string(faces.size()) +
+                          " triangles is degenerate (no area): nothing to mesh");
+    // Keep only the vertices the faces use: stray points would become background
+    // vertices for nothing.
+    std::vector<index_t> used(s.vertices.size(), invalid_index);
+    std::vector<vec3> kept;
+    for (auto& f : s.faces)
+        for (index_t& v : f) {
+            if (used[v] == invalid_index)
+                used[v] = index_t(kept.size()), kept.push_back(s.vertices[v]);
+            v = used[v];
+        }
+    s.vertices = std::move(kept);
+    r.triangles = s.faces.size();
+    return s;
+}
+
+/// Input triangles whose tracked faces cover them exactly: the areas of the tracked
+/// faces, projected on the triangle's dominant coordinate plane, sum (in rationals) to
+/// the triangle's. Tracked faces lie inside their triangles and do not overlap (they are
+/// faces of a valid tet mesh), so equal areas mean equal sets.
+inline std::size_t count_covered(const insertion::inserted_mesh& m, const clean_soup& s) {
+    const std::size_t nt = s.faces.size();
+    std::vector<index_t> first(nt + 1, 0), faces;
+    for (std::size_t i = 0; i < m.tracked.size(); ++i)
+        for (index_t k = m.tracked_first[i]; k < m.tracked_first[i + 1]; ++k)
+            ++first[m.tracked_by[k] + 1];
+    for (std::size_t t = 0; t < nt; ++t) first[t + 1] += first[t];
+    faces.resize(first[nt]);
+    {
+        std::vector<index_t> fill(first.begin(), first.end() - 1);
+        for (std::size_t i = 0; i < m.tracked.size(); ++i)
+            for (index_t k = m.tracked_first[i]; k < m.tracked_first[i + 1]; ++k)
+                faces[fill[m.tracked_by[k]]++] = index_t(i);
+    }
+    std::atomic<std::size_t> covered{0};
+    tbb::parallel_for(std::size_t{0}, nt, [&](std::size_t t) {
+        const auto& f = s.faces[t];
+        const vec3 n =
+            cross(s.vertices[f[1]] - s.vertices[f[0]], s.vertices[f[2]] - s.vertices[f[0]]);
+        int drop = 0;
+        for (int a = 1; a < 3; ++a)
+            if (std::abs(n[a]) > std::abs(n[drop])) drop = a;
+        const int u = (drop + 1) % 3, w = (drop + 2) % 3;
+        auto area2 = [&](const rational_point& a, const rational_point& b,
+                         const rational_point& c) {
+            return mpq_class(abs((b[u] - a[u]) * (c[w] - a[w]) - (b[w] - a[w]) * (c[u] - a[u])));
+        };
+        const mpq_class whole = area2(to_rational(s.vertices[f[0]]), to_rational(s.vertices[f[1]]),
+                                      to_rational(s.vertices[f[2]]));
+        mpq_class sum = 0;
+        for (index_t k = first[t]; k < first[t + 1]; ++k) {
+            const auto& g = m.tracked[faces[k]];
+            sum += area2(m.exact_position(g[0]), m.exact_position(g[1]), m.exact_position(g[2]));
+        }
+        if (sum == whole) covered.fetch_add(1, std::memory_order_relaxed);
+    });
+    return covered.load();
+}
+
+/// Part 1 of tetrahedral meshing: exact insertion with inside and outside. Throws
+/// input_error (naming `source`) for inputs it cannot mesh.
+inline result mesh_insertion(const std::vector<vec3>& vertices,
+                             const std::vector<tri_indices>& faces, const options& opt,
+                             const std::string& source) {
+    using clock = std::chrono::steady_clock;
+    result out;
+    report& r = out.stats;
+    auto t0 = clock::now();
+    const clean_soup soup = clean(vertices, faces, source, r);
+    vec3 lo = soup.vertices[0], hi = lo;
+    for (const vec3& p : soup.vertices)
+        for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], p[k]), hi[k] = std::max(hi[k], p[k]);
+    r.diagonal = norm(hi - lo);
+    r.epsilon = opt.absolute ? opt.epsilon : opt.epsilon * r.diagonal;
+    r.edge_length = opt.absolute ? opt.edge_length : opt.edge_length * r.diagonal;
+    if (!(r.edge_length > 0) || !std::isfinite(r.edge_length))
+        throw input_error(source + ": the edge length must be positive and finite");
+    r.seconds_cleaning = detail::seconds_since(t0);
+
+    // Background: the soup's vertices and a grid on a box a tenth of the diagonal wider
+    // (at most 50 points a side, so an absurdly small edge length cannot exhaust memory).
+    t0 = clock::now();
+    std::vector<vec3> points = soup.vertices;
+    {
+        const double margin = 0.1 * r.diagonal;
+        vec3 blo = lo, bhi = hi;
+        for (int k = 0; k < 3; ++k) blo[k] -= margin, bhi[k] += margin;
+        std::array<int, 3> cells{};
+        for (int k = 0; k < 3; ++k)
+            cells[k] = std::clamp(int(std::ceil((bhi[k] - blo[k]) / r.edge_length)), 1, 50);
+        auto coord = [&](int k, int i) {
+            return i == cells[k] ? bhi[k] : blo[k] + (bhi[k] - blo[k]) * i / cells[k];
+        };
+        for (int i = 0; i <= cells[0]; ++i)
+            for (int j = 0; j <= cells[1]; ++j)
+                for (int k = 0; k <= cells[2]; ++k)
+                    if (i == 0 || i == cells[0] || j == 0 || j == cells[1] || k == 0 ||
+                        k == cells[2])
+                        points.push_back({coord(0, i), coord(1, j), coord(2, k)});
+    }
+    const cgal::delaunay_result dt = cgal::delaunay_tetrahedralization(points);
+    insertion::insertion_input in;
+    in.vertices = dt.vertices;
+    in.tets = dt.tets;
+    in.triangles.reserve(soup.faces.size());
+    for (const auto& f : soup.faces)
+        in.triangles.push_back({dt.index_of[f[0]], dt.index_of[f[1]], dt.index_of[f[2]]});
+    r.background_tets = in.tets.size();
+    r.seconds_delaunay = detail::seconds_since(t0);
+
+    t0 = clock::now();
+    out.mesh = insertion::insert_triangles(in);
+    r.cut_tets = out.mesh.cut_tets, r.refined_tets = out.mesh.refined_tets;
+    r.rational_vertices_created = out.mesh.exact.size();
+    r.seconds_insertion = detail::seconds_since(t0);
+
+    // Check the guarantee before rounding moves anything: exact cover of every triangle.
+    t0 = clock::now();
+    {
+        clean_soup in_mesh{in.vertices, in.triangles};
+        r.covered_triangles = count_covered(out.mesh, in_mesh);
+    }
+    r.seconds_check = detail::seconds_since(t0);
+
+    t0 = clock::now();
+    r.rational_vertices_left = insertion::round_vertices(out.mesh);
+    r.seconds_rounding = detail::seconds_since(t0);
+
+    t0 = clock::now();
+    const winding_number w(soup.vertices, soup.faces);
+    const auto& M = out.mesh;
+    out.inside.assign(M.tets.size(), 0);
+    out.winding.assign(M.tets.size(), 0.0);
+    tbb::parallel_for(std::size_t{0}, M.tets.size(), [&](std::size_t t) {
+        const auto& tv = M.tets[t];
+        const vec3 c =
+            (M.vertices[tv[0]] + M.vertices[tv[1]] + M.vertices[tv[2]] + M.vertices[tv[3]]) * 0.25;
+        out.winding[t] = w(c);
+        out.inside[t] = out.winding[t] > 0.5;
+    });
+    r.seconds_winding = detail::seconds_since(t0);
+
+    r.tets = M.tets.size(), r.vertices = M.vertices.size(), r.tracked_faces = M.tracked.size();
+    for (auto x : out.inside) r.inside_tets += x;
+    t0 = clock::now();
+    r.inverted_tets = insertion::count_inverted(M);
+    r.seconds_check += detail::seconds_since(t0);
+    return out;
+}
+
+} // namespace idas::tetmesh

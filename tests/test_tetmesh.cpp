@@ -1,0 +1,259 @@
+// Tetrahedral meshing of triangle soups, part 1: exact insertion, rounding, inside and
+// outside (include/idas/algorithms/triangle_insertion.hpp, include/idas/cgal/tetmesh.hpp).
+#include <doctest/doctest.h>
+
+#if defined(IDAS_HAS_CGAL)
+#include <idas/algorithms/triangle_insertion.hpp>
+#include <idas/algorithms/winding_number.hpp>
+#include <idas/cgal/delaunay.hpp>
+#include <idas/cgal/tetmesh.hpp>
+#include <idas/io/io.hpp>
+
+#include <tbb/global_control.h>
+
+#include <cmath>
+#include <limits>
+#include <map>
+#include <random>
+#include <string>
+
+using namespace idas;
+
+namespace {
+
+std::string data(const char* name) {
+    return std::string(IDAS_DATA_DIR) + "/" + name;
+}
+
+/// A valid subdivision of the background's box: every tet positive (exact), every face
+/// in at most two tets and then with opposite orientations, and the tets' exact volumes
+/// sum to the box's (so nothing overlaps and nothing is missing).
+void check_valid(const insertion::inserted_mesh& m, const vec3& lo, const vec3& hi) {
+    CHECK(insertion::count_inverted(m) == 0);
+    std::map<std::array<index_t, 3>, std::vector<tri_indices>> faces;
+    mpq_class volume6 = 0;
+    for (const auto& t : m.tets) {
+        for (const auto& lf : tet_local::face_vertices) {
+            tri_indices f{t[lf[0]], t[lf[1]], t[lf[2]]};
+            std::array<index_t, 3> key = f;
+            std::sort(key.begin(), key.end());
+            faces[key].push_back(f);
+        }
+        const rational_point a = m.exact_position(t[0]), b = m.exact_position(t[1]),
+                             c = m.exact_position(t[2]), d = m.exact_position(t[3]);
+        const auto u = insertion::detail::minus(b, a), v = insertion::detail::minus(c, a);
+        volume6 += insertion::detail::dot(insertion::detail::cross(u, v), d) -
+                   insertion::detail::dot(insertion::detail::cross(u, v), a);
+    }
+    std::size_t over_shared = 0, same_side = 0;
+    for (const auto& [key, uses] : faces) {
+        over_shared += uses.size() > 2;
+        if (uses.size() == 2) {
+            // Opposite orientations: the second is a rotation of the first reversed.
+            const tri_indices r{uses[0][0], uses[0][2], uses[0][1]};
+            bool reversed = false;
+            for (int k = 0; k < 3; ++k)
+                reversed |= uses[1] == tri_indices{r[k], r[(k + 1) % 3], r[(k + 2) % 3]};
+            same_side += !reversed;
+        }
+    }
+    CHECK(over_shared == 0);
+    CHECK(same_side == 0);
+    const mpq_class box =
+        6 * (mpq_class(hi.x) - lo.x) * (mpq_class(hi.y) - lo.y) * (mpq_class(hi.z) - lo.z);
+    CHECK(volume6 == box);
+}
+
+struct background {
+    insertion::insertion_input in;
+    vec3 lo, hi;
+};
+
+/// Delaunay of the soup's vertices and the corners of a box around them.
+background make_background(const std::vector<vec3>& v, const std::vector<tri_indices>& f) {
+    background b;
+    b.lo = b.hi = v[0];
+    for (const vec3& p : v)
+        for (int k = 0; k < 3; ++k)
+            b.lo[k] = std::min(b.lo[k], p[k]), b.hi[k] = std::max(b.hi[k], p[k]);
+    for (int k = 0; k < 3; ++k) b.lo[k] -= 1, b.hi[k] += 1;
+    std::vector<vec3> pts = v;
+    for (int i = 0; i < 8; ++i)
+        pts.push_back(
+            {(i & 1) ? b.hi.x : b.lo.x, (i & 2) ? b.hi.y : b.lo.y, (i & 4) ? b.hi.z : b.lo.z});
+    const auto dt = cgal::delaunay_tetrahedralization(pts);
+    b.in.vertices = dt.vertices;
+    b.in.tets = dt.tets;
+    for (const auto& t : f)
+        b.in.triangles.push_back({dt.index_of[t[0]], dt.index_of[t[1]], dt.index_of[t[2]]});
+    return b;
+}
+
+/// Inserts, checks validity and exact cover before rounding, then rounds and checks
+/// again. Returns the number of triangles covered exactly.
+std::size_t insert_and_check(const std::vector<vec3>& v, const std::vector<tri_indices>& f) {
+    background b = make_background(v, f);
+    insertion::inserted_mesh m = insertion::insert_triangles(b.in);
+    check_valid(m, b.lo, b.hi);
+    const std::size_t covered =
+        tetmesh::count_covered(m, tetmesh::clean_soup{b.in.vertices, b.in.triangles});
+    insertion::round_vertices(m);
+    check_valid(m, b.lo, b.hi);
+    return covered;
+}
+
+/// Signed volume enclosed by a closed, outward-oriented surface.
+double enclosed_volume(const std::vector<vec3>& v, const std::vector<tri_indices>& f) {
+    double s = 0;
+    for (const auto& t : f) s += dot(v[t[0]], cross(v[t[1]], v[t[2]]));
+    return s / 6;
+}
+
+double inside_volume(const tetmesh::result& r) {
+    double s = 0;
+    for (std::size_t t = 0; t < r.mesh.tets.size(); ++t)
+        if (r.inside[t]) {
+            const auto& x = r.mesh.tets[t];
+            const auto& p = r.mesh.vertices;
+            s += dot(p[x[1]] - p[x[0]], cross(p[x[2]] - p[x[0]], p[x[3]] - p[x[0]])) / 6;
+        }
+    return s;
+}
+
+} // namespace
+
+TEST_CASE("triangle insertion: two triangles crossing each other are both covered exactly") {
+    const std::vector<vec3> v{{0, 0, 0},      {2, 0, 0},     {0, 2, 0},
+                              {0.5, 0.5, -1}, {0.7, 0.4, 1}, {0.3, 0.9, 1}};
+    CHECK(insert_and_check(v, {{0, 1, 2}, {3, 4, 5}}) == 2);
+}
+
+TEST_CASE("triangle insertion: coplanar overlapping, touching and T-junction triangles") {
+    // Three triangles in z = 0: two overlapping, one sharing an edge, one whose corner
+    // lies in the middle of another's edge.
+    const std::vector<vec3> v{{0, 0, 0}, {4, 0, 0},  {0, 4, 0}, {1, 1, 0}, {5, 1, 0},
+                              {1, 5, 0}, {0, -3, 0}, {2, 0, 0}, {2, -2, 0}};
+    CHECK(insert_and_check(v, {{0, 1, 2}, {3, 4, 5}, {0, 6, 1}, {7, 8, 1}}) == 4);
+}
+
+TEST_CASE("triangle insertion: a triangle lying on a face of the background") {
+    // The background is one tet split by nothing; the triangle is inside one of its faces.
+    insertion::insertion_input in;
+    in.vertices = {{0, 0, 0}, {4, 0, 0}, {0, 4, 0}, {0, 0, 4}, {1, 1, 0}, {2, 1, 0}, {1, 2, 0}};
+    // Split the tet so that the small triangle's corners are vertices: Delaunay does it.
+    const auto dt = cgal::delaunay_tetrahedralization(in.vertices);
+    in.vertices = dt.vertices;
+    in.tets = dt.tets;
+    in.triangles = {{dt.index_of[4], dt.index_of[5], dt.index_of[6]},
+                    {dt.index_of[0], dt.index_of[5], dt.index_of[3]}};
+    insertion::inserted_mesh m = insertion::insert_triangles(in);
+    CHECK(insertion::count_inverted(m) == 0);
+    CHECK(tetmesh::count_covered(m, tetmesh::clean_soup{in.vertices, in.triangles}) == 2);
+}
+
+TEST_CASE("triangle insertion: random soups of intersecting triangles (fixed seeds)") {
+    for (unsigned seed : {1u, 2u, 3u}) {
+        std::mt19937 rng(seed);
+        std::uniform_real_distribution<double> u(0, 1);
+        std::vector<vec3> v;
+        std::vector<tri_indices> f;
+        for (int i = 0; i < 12; ++i) {
+            for (int k = 0; k < 3; ++k) v.push_back({u(rng), u(rng), u(rng)});
+            f.push_back({index_t(3 * i), index_t(3 * i + 1), index_t(3 * i + 2)});
+        }
+        CAPTURE(seed);
+        CHECK(insert_and_check(v, f) == f.size());
+    }
+}
+
+TEST_CASE("triangle insertion: the small meshes of data/, exactly covered and valid") {
+    for (const char* name :
+         {"edge_with_four_triangles.off", "hour_glass.off", "sphere.obj", "x.stl"}) {
+        CAPTURE(name);
+        const io::surface s = io::read_surface(data(name));
+        tetmesh::report r;
+        const tetmesh::clean_soup c = tetmesh::clean(s.vertices, s.faces, name, r);
+        CHECK(insert_and_check(c.vertices, c.faces) == c.faces.size());
+    }
+}
+
+TEST_CASE("tetmesh: closed inputs, inside volume equals the enclosed volume") {
+    for (const char* name : {"sphere.obj", "hour_glass.off", "blub.obj"}) {
+        CAPTURE(name);
+        const io::surface s = io::read_surface(data(name));
+        const tetmesh::result r = tetmesh::mesh_insertion(s.vertices, s.faces, {}, name);
+        CHECK(r.stats.covered_triangles == r.stats.triangles);
+        CHECK(r.stats.inverted_tets == 0);
+        const double want = enclosed_volume(s.vertices, s.faces);
+        CHECK(std::abs(inside_volume(r) - want) <= 0.01 * std::abs(want));
+    }
+}
+
+TEST_CASE("tetmesh: non-manifold, inconsistently oriented 37989_sf and open bunny") {
+    for (const char* name : {"37989_sf.obj", "bunny.off"}) {
+        CAPTURE(name);
+        const io::surface s = io::read_surface(data(name));
+        const tetmesh::result r = tetmesh::mesh_insertion(s.vertices, s.faces, {}, name);
+        CHECK(r.stats.covered_triangles == r.stats.triangles);
+        CHECK(r.stats.inverted_tets == 0);
+        CHECK(r.stats.inside_tets > 0);
+        CHECK(r.stats.inside_tets < r.stats.tets);
+    }
+}
+
+TEST_CASE("tetmesh: the result does not depend on the number of threads") {
+    const io::surface s = io::read_surface(data("sphere.obj"));
+    auto run = [&](int threads) {
+        tbb::global_control c(tbb::global_control::max_allowed_parallelism, std::size_t(threads));
+        return tetmesh::mesh_insertion(s.vertices, s.faces, {}, "sphere.obj");
+    };
+    const tetmesh::result one = run(1), three = run(3);
+    CHECK(one.mesh.vertices == three.mesh.vertices);
+    CHECK(one.mesh.tets == three.mesh.tets);
+    CHECK(one.mesh.tracked == three.mesh.tracked);
+    CHECK(one.inside == three.inside);
+}
+
+TEST_CASE("tetmesh: bad inputs are refused with input_error") {
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    const std::vector<tri_indices> two{{0, 1, 2}, {0, 1, 3}};
+    CHECK_THROWS_AS(tetmesh::mesh_insertion({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}, {}, {}, "empty"),
+                    input_error);
+    CHECK_THROWS_AS(
+        tetmesh::mesh_insertion({{0, 0, 0}, {1, 0, 0}, {nan, 1, 0}, {0, 0, 1}}, two, {}, "nan"),
+        input_error);
+    CHECK_THROWS_AS(
+        tetmesh::mesh_insertion({{0, 0, 0}, {1e308, 0, 0}, {0, 1, 0}, {0, 0, 1}}, two, {}, "huge"),
+        input_error);
+    CHECK_THROWS_AS(
+        tetmesh::mesh_insertion({{0, 0, 0}, {1, 0, 0}, {2, 0, 0}}, {{0, 1, 2}}, {}, "line"),
+        input_error);
+    CHECK_THROWS_AS(
+        tetmesh::mesh_insertion({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}, {{0, 1, 7}}, {}, "index"),
+        input_error);
+    // A flat sheet is meshed (its triangle is inserted) but encloses nothing.
+    const tetmesh::result flat =
+        tetmesh::mesh_insertion({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}, {{0, 1, 2}}, {}, "flat");
+    CHECK(flat.stats.covered_triangles == 1);
+    CHECK(flat.stats.inside_tets == 0);
+}
+
+TEST_CASE("winding number: 1 inside a closed surface, 0 outside, near and far") {
+    const io::surface s = io::read_surface(data("sphere.obj"));
+    const winding_number w(s.vertices, s.faces);
+    vec3 lo = s.vertices[0], hi = lo;
+    for (const vec3& p : s.vertices)
+        for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], p[k]), hi[k] = std::max(hi[k], p[k]);
+    const vec3 c = (lo + hi) * 0.5, d = hi - lo;
+    CHECK(w(c) == doctest::Approx(1.0).epsilon(1e-3));
+    CHECK(w(c + d * 3.0) == doctest::Approx(0.0).epsilon(1e-3));
+    CHECK(std::abs(w(c + d * 100.0)) < 1e-3);
+    // Brute force agrees with the hierarchy at a point near the surface.
+    const vec3 p = s.vertices[0] * 1.01 + c * (-0.01);
+    double sum = 0;
+    for (const auto& t : s.faces)
+        sum += solid_angle(p, s.vertices[t[0]], s.vertices[t[1]], s.vertices[t[2]]);
+    CHECK(w(p) == doctest::Approx(sum / (4 * std::acos(-1.0))).epsilon(1e-2));
+}
+
+#endif
