@@ -110,19 +110,11 @@ std::optional<std::string> check_harmonic_result(const idas::io::volume& v, long
     return std::nullopt;
 }
 
-/// The lower-case extension of a path (".msh").
-std::string harmonic_extension(const std::string& path) {
-    std::string ext = std::filesystem::path(path).extension().string();
-    for (char& c : ext)
-        if (c >= 'A' && c <= 'Z') c = static_cast<char>(c - 'A' + 'a');
-    return ext;
-}
-
 int run_harmonic(const harmonic_arguments& a) {
 #if IDAS_CLI_HAVE_CGAL
     const stopwatch total;
     // Everything that can be refused without work is refused first.
-    const std::string ext = harmonic_extension(a.out);
+    const std::string ext = lowercase_extension(a.out);
     if (ext != ".msh" && ext != ".vtu")
         throw idas::input_error(a.out + ": unknown output extension (expected .msh or .vtu)");
     check_threads(a.threads);

@@ -11,17 +11,12 @@
 
 /// True for the extensions of tet mesh files (.msh, .vtu; any case).
 bool is_tet_path(const std::string& path) {
-    std::string ext = std::filesystem::path(path).extension().string();
-    for (char& c : ext)
-        if (c >= 'A' && c <= 'Z') c = static_cast<char>(c - 'A' + 'a');
+    const std::string ext = lowercase_extension(path);
     return ext == ".msh" || ext == ".vtu";
 }
 
 bool is_vtu_path(const std::string& path) {
-    std::string ext = std::filesystem::path(path).extension().string();
-    for (char& c : ext)
-        if (c >= 'A' && c <= 'Z') c = static_cast<char>(c - 'A' + 'a');
-    return ext == ".vtu";
+    return lowercase_extension(path) == ".vtu";
 }
 
 /// Reads a tet mesh and refuses what no subcommand can use: no tets, or coordinates

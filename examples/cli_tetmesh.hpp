@@ -47,10 +47,7 @@ CLI::App* add_tetmesh_command(CLI::App& app, tetmesh_arguments& a,
 int run_tetmesh(const tetmesh_arguments& a) {
 #if IDAS_CLI_HAVE_CGAL
     const stopwatch total;
-    std::string ext = std::filesystem::path(a.out).extension().string();
-    for (char& ch : ext)
-        if (ch >= 'A' && ch <= 'Z') ch = static_cast<char>(ch - 'A' + 'a');
-    if (ext != ".msh")
+    if (lowercase_extension(a.out) != ".msh")
         throw idas::input_error(a.out + ": unknown output extension (expected .msh)");
     check_threads(a.threads);
     if (!(a.epsilon > 0) || !std::isfinite(a.epsilon) || (!a.absolute && a.epsilon > 1))

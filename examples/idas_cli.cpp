@@ -348,6 +348,14 @@ void check_range(const std::string& source, const std::vector<vec3>& points) {
         throw idas::input_error(source + ": " + *problem);
 }
 
+/// The lower-case extension of a path (".msh").
+std::string lowercase_extension(const std::string& path) {
+    std::string ext = std::filesystem::path(path).extension().string();
+    for (char& c : ext)
+        if (c >= 'A' && c <= 'Z') c = static_cast<char>(c - 'A' + 'a');
+    return ext;
+}
+
 /// Reads a mesh file and refuses what no subcommand can use: no triangles at all, or
 /// coordinates outside the supported range.
 idas::io::surface load(const std::string& path) {

@@ -294,6 +294,20 @@ struct tet_adjacency {
     std::vector<index_t> star_first, star; // tets around each vertex (CSR)
 };
 
+/// The tets around each vertex, as offsets and a list (CSR): tets of vertex v are
+/// star[first[v] .. first[v + 1]).
+inline std::pair<std::vector<index_t>, std::vector<index_t>>
+vertex_stars(std::size_t n_vertices, const std::vector<tet_indices>& tets) {
+    std::vector<index_t> first(n_vertices + 1, 0), star(4 * tets.size());
+    for (const auto& t : tets)
+        for (index_t v : t) ++first[v + 1];
+    for (std::size_t v = 0; v < n_vertices; ++v) first[v + 1] += first[v];
+    std::vector<index_t> fill(first.begin(), first.end() - 1);
+    for (std::size_t t = 0; t < tets.size(); ++t)
+        for (index_t v : tets[t]) star[fill[v]++] = index_t(t);
+    return {std::move(first), std::move(star)};
+}
+
 inline tet_adjacency build_adjacency(std::size_t n_vertices, const std::vector<tet_indices>& tets) {
     tet_adjacency a;
     const std::size_t m = tets.size();
@@ -321,14 +335,7 @@ inline tet_adjacency build_adjacency(std::size_t n_vertices, const std::vector<t
             a.across[y] = x / 4, a.across_face[y] = std::uint8_t(x % 4);
             ++i;
         }
-    a.star_first.assign(n_vertices + 1, 0);
-    for (const auto& t : tets)
-        for (index_t v : t) ++a.star_first[v + 1];
-    for (std::size_t v = 0; v < n_vertices; ++v) a.star_first[v + 1] += a.star_first[v];
-    a.star.resize(4 * m);
-    std::vector<index_t> fill(a.star_first.begin(), a.star_first.end() - 1);
-    for (std::size_t t = 0; t < m; ++t)
-        for (index_t v : tets[t]) a.star[fill[v]++] = index_t(t);
+    std::tie(a.star_first, a.star) = vertex_stars(n_vertices, tets);
     return a;
 }
 
@@ -510,7 +517,7 @@ public:
                 int k = 0;
                 for (std::uint8_t v = 0; v < 4; ++v)
                     if (pts_[i].faces & (1u << v)) e[k++] = v;
-                const std::array<std::uint8_t, 2> ends = complement(e);
+                const auto ends = tet_local::edge_complement(tet_local::edge_of[e[0]][e[1]]);
                 out.push_back({std::int8_t(-1 - tet_local::edge_of[ends[0]][ends[1]]), pts_[i].q});
             }
         }
@@ -562,14 +569,6 @@ private:
     };
     std::map<std::vector<std::uint32_t>, triangulation> triangulations_;
     std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> side_points_;
-
-    static std::array<std::uint8_t, 2> complement(std::array<std::uint8_t, 2> e) {
-        std::array<std::uint8_t, 2> r{};
-        int k = 0;
-        for (std::uint8_t v = 0; v < 4; ++v)
-            if (v != e[0] && v != e[1]) r[k++] = v;
-        return r;
-    }
 
     std::uint32_t add_plane(std::uint64_t key, exact_plane pl) {
         auto [it, fresh] = plane_ids_.try_emplace(key, std::uint32_t(planes_.size()));
@@ -1159,13 +1158,10 @@ inline inserted_mesh insert_triangles(const insertion_input& in) {
                 auto& tg = tags[it->second];
                 tg.insert(tg.end(), o.tracked_by[k].begin(), o.tracked_by[k].end());
             }
-            (slot[t] != invalid_index ? r.cut_tets : r.refined_tets) +=
-                cp.group_first[t + 1] > cp.group_first[t] ? 1 : 0;
         } else {
             r.tets.push_back(in.tets[t]);
         }
     }
-    r.cut_tets = 0;
     for (index_t t = 0; t < m; ++t) r.cut_tets += has_planes(t) ? 1 : 0;
     r.refined_tets = second_list.size() - r.cut_tets;
     for (auto& tg : tags) {
@@ -1203,16 +1199,7 @@ inline std::size_t count_inverted(const inserted_mesh& r) {
 /// (exact orient3d), repeating while some vertex could be rounded. Returns how many
 /// vertices stay rational.
 inline std::size_t round_vertices(inserted_mesh& r) {
-    const std::size_t n = r.vertices.size();
-    std::vector<index_t> first(n + 1, 0), star(4 * r.tets.size());
-    for (const auto& t : r.tets)
-        for (index_t v : t) ++first[v + 1];
-    for (std::size_t v = 0; v < n; ++v) first[v + 1] += first[v];
-    {
-        std::vector<index_t> fill(first.begin(), first.end() - 1);
-        for (std::size_t t = 0; t < r.tets.size(); ++t)
-            for (index_t v : r.tets[t]) star[fill[v]++] = index_t(t);
-    }
+    const auto [first, star] = detail::vertex_stars(r.vertices.size(), r.tets);
     std::vector<index_t> pending;
     for (const auto& [v, q] : r.exact) pending.push_back(v);
     std::sort(pending.begin(), pending.end());
