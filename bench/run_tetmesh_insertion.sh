@@ -13,7 +13,7 @@ trap 'rm -rf "$TMP"' EXIT
 printf '%-16s %3s %8s %9s %9s %8s %8s %8s %8s %9s %8s\n' input thr tris inserted tets inside delaunay insertion rounding winding total
 for f in ${INPUTS:-bunny.obj 100071_sf.obj 37989_sf.obj blub.obj sphere.obj x.stl hour_glass.off}; do
     for t in 1 2; do
-        "$IDAS" tetmesh "$DATA/$f" "$TMP/out.msh" --threads "$t" --json >"$TMP/j.json"
+        "$IDAS" tetmesh "$DATA/$f" "$TMP/out.msh" --stage insertion --threads "$t" --json >"$TMP/j.json"
         python3 - "$TMP/j.json" "$f" "$t" <<'PY'
 import json, sys
 d = json.load(open(sys.argv[1])); s = d['seconds']

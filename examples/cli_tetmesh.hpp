@@ -1,18 +1,21 @@
-// `idas tetmesh`: tetrahedral meshing of a triangle soup, part 1 (exact insertion with
-// inside and outside; the quality optimization is the next stage). Included by
-// idas_cli.cpp inside its anonymous namespace, after the helpers it uses.
+// `idas tetmesh`: tetrahedral meshing of a triangle soup: exact insertion with inside and
+// outside (part 1), then the quality optimization (part 2). Included by idas_cli.cpp inside
+// its anonymous namespace, after the helpers it uses.
 //
 //   idas tetmesh IN OUT.msh [--epsilon E] [--edge-length L] [--absolute]
-//                [--stage insertion] [--threads T] [--json] [--ascii]
+//                [--stop-energy 10] [--max-iterations 80] [--keep-outside]
+//                [--stage insertion|optimize] [--threads T] [--json] [--ascii]
 //
-// OUT is MSH 2.2 with every tet of the mesh: physical tag 1 inside (winding number above
-// 1/2 at its centroid), 2 outside.
+// OUT is MSH 2.2: physical tag 1 inside (winding number above 1/2 at its centroid), 2
+// outside. The full run writes the inside only (with --keep-outside, every tet); the
+// insertion stage writes every tet.
 #pragma once
 
 struct tetmesh_arguments {
-    std::string in, out, stage = "insertion";
-    double epsilon = 1e-3, edge_length = 1.0 / 20.0;
-    bool absolute = false, as_json = false, ascii = false;
+    std::string in, out, stage = "optimize";
+    double epsilon = 1e-3, edge_length = 1.0 / 20.0, stop_energy = 10;
+    unsigned max_iterations = 80;
+    bool absolute = false, as_json = false, ascii = false, keep_outside = false;
     unsigned threads = 1;
 };
 
@@ -20,7 +23,8 @@ CLI::App* add_tetmesh_command(CLI::App& app, tetmesh_arguments& a,
                               const CLI::Validator& unsigned_check) {
     auto* c = app.add_subcommand(
         "tetmesh", "Tetrahedral mesh of a triangle soup (TetWild-style): every input triangle "
-                   "inserted exactly into a background mesh, tets tagged inside/outside");
+                   "inserted exactly into a background mesh, the tets optimized to AMIPS at "
+                   "most --stop-energy, the inside kept");
     c->add_option("IN", a.in, "input triangle soup (.obj, .off, .ply, .stl)")->required();
     c->add_option("OUT", a.out, "output tet mesh (.msh, MSH 2.2: tag 1 inside, 2 outside)")
         ->required();
@@ -33,8 +37,18 @@ CLI::App* add_tetmesh_command(CLI::App& app, tetmesh_arguments& a,
                   "box points)")
         ->capture_default_str();
     c->add_flag("--absolute", a.absolute, "--epsilon and --edge-length are absolute lengths");
-    c->add_option("--stage", a.stage, "last stage to run (insertion: part 1)")
-        ->check(CLI::IsMember({"insertion"}))
+    c->add_option("--stop-energy", a.stop_energy,
+                  "stop optimizing when the largest AMIPS energy is at most this (>= 3)")
+        ->capture_default_str();
+    c->add_option("--max-iterations", a.max_iterations,
+                  "at most this many rounds of split, collapse, swap and smooth")
+        ->check(unsigned_check)
+        ->capture_default_str();
+    c->add_flag("--keep-outside", a.keep_outside,
+                "write every tet (tag 1 inside, 2 outside), not only the inside");
+    c->add_option("--stage", a.stage,
+                  "last stage to run (insertion: part 1, every tet written unoptimized)")
+        ->check(CLI::IsMember({"insertion", "optimize"}))
         ->capture_default_str();
     c->add_option("--threads", a.threads, "worker threads")
         ->check(unsigned_check)
@@ -43,6 +57,129 @@ CLI::App* add_tetmesh_command(CLI::App& app, tetmesh_arguments& a,
     c->add_flag("--ascii", a.ascii, "write MSH as text instead of binary");
     return c;
 }
+
+#if IDAS_CLI_HAVE_CGAL
+/// The full run: parts 1 and 2.
+int run_tetmesh_optimized(const tetmesh_arguments& a, const idas::io::surface& s,
+                          const idas::tetmesh::options& o, const stopwatch& total) {
+    idas::tetmesh::quality_options q;
+    q.stop_energy = a.stop_energy, q.max_iterations = a.max_iterations;
+    q.threads = a.threads, q.keep_outside = a.keep_outside;
+    std::optional<terminal_progress> bar;
+    if (!a.as_json) bar.emplace("tetmesh");
+    idas::tetmesh::volume_mesh res = idas::tetmesh::mesh_volume(
+        s.vertices, s.faces, o, q, a.in, [&](unsigned round, double max_energy) {
+            if (bar)
+                bar->draw(double(round + 1) / std::max(1u, a.max_iterations),
+                          "round " + std::to_string(round + 1) + ", max AMIPS " +
+                              std::to_string(max_energy));
+        });
+    if (bar) bar->end_line();
+    const auto& r = res.insertion;
+    const auto& qr = res.quality;
+    const auto& opt = qr.optimization;
+    if (r.covered_triangles != r.triangles || r.inverted_tets != 0)
+        throw std::runtime_error(
+            "internal error: tetmesh covered " + std::to_string(r.covered_triangles) + " of " +
+            std::to_string(r.triangles) + " triangles exactly and left " +
+            std::to_string(r.inverted_tets) + " inverted tets; nothing was written");
+    idas::io::volume v;
+    v.vertices = res.vertices;
+    for (std::size_t t = 0; t < res.tets.size(); ++t)
+        if (a.keep_outside || res.inside[t]) {
+            v.tets.push_back(res.tets[t]);
+            v.tags.push_back(res.inside[t] ? 1 : 2);
+        }
+    if (!a.keep_outside) { // drop the vertices only outside tets used
+        std::vector<idas::index_t> id(v.vertices.size(), idas::invalid_index);
+        std::vector<idas::vec3> kept;
+        for (auto& t : v.tets)
+            for (auto& x : t) {
+                if (id[x] == idas::invalid_index)
+                    id[x] = idas::index_t(kept.size()), kept.push_back(v.vertices[x]);
+                x = id[x];
+            }
+        v.vertices = std::move(kept);
+    }
+    idas::io::write_msh(a.out, v, idas::io::msh_version::v2_2,
+                        a.ascii ? idas::io::encoding::ascii : idas::io::encoding::binary);
+    const char* stop = opt.stopped == idas::algorithms::tet_optimization_stop::iteration_limit
+                           ? "iteration_limit"
+                           : "energy_reached";
+    if (a.as_json) {
+        json j;
+        j["input"] = {{"file", a.in},
+                      {"vertices", r.input_vertices},
+                      {"faces", r.input_faces},
+                      {"welded_vertices", r.welded_vertices},
+                      {"degenerate_faces_dropped", r.degenerate_faces + s.dropped_faces},
+                      {"repeated_faces_dropped", r.repeated_faces}};
+        j["triangles"] = r.triangles;
+        j["inserted_triangles"] = r.covered_triangles;
+        j["tets"] = v.tets.size();
+        j["vertices"] = v.vertices.size();
+        j["inside_tets"] = qr.inside_tets;
+        j["added_for_manifold_boundary"] = qr.added_for_manifold;
+        j["boundary"] = {
+            {"faces", qr.boundary_faces},
+            {"non_manifold_edges", qr.non_manifold_edges},
+            {"non_manifold_vertices", qr.non_manifold_vertices},
+            {"closed_2_manifold", qr.non_manifold_edges == 0 && qr.non_manifold_vertices == 0}};
+        j["amips"] = {{"min", qr.quality.amips.min},
+                      {"mean", qr.quality.amips.mean},
+                      {"max", qr.quality.amips.max}};
+        j["min_dihedral_deg"] = qr.quality.dihedral_deg.min;
+        j["flat_or_inverted_tets"] = qr.flat_or_inverted;
+        j["optimization"] = {{"iterations", opt.iterations},
+                             {"stopped", stop},
+                             {"stop_energy", a.stop_energy},
+                             {"max_energy_before", opt.max_energy_before},
+                             {"max_energy", opt.max_energy},
+                             {"splits", opt.splits},
+                             {"collapses", opt.collapses},
+                             {"swaps", opt.swaps},
+                             {"smooths", opt.smooths},
+                             {"sizing_refinements", opt.sizing_refinements},
+                             {"rational_vertices_left", opt.rational_left}};
+        j["diagonal"] = r.diagonal;
+        j["epsilon"] = r.epsilon;
+        j["edge_length"] = r.edge_length;
+        j["kept"] = a.keep_outside ? "all tets; MSH physical tag 1 = inside, 2 = outside"
+                                   : "inside tets (MSH physical tag 1)";
+        j["threads"] = a.threads;
+        j["seconds"] = {{"cleaning", r.seconds_cleaning},
+                        {"delaunay", r.seconds_delaunay},
+                        {"insertion", r.seconds_insertion},
+                        {"rounding", r.seconds_rounding},
+                        {"checks", r.seconds_check},
+                        {"optimization", qr.seconds_optimization},
+                        {"winding_number_and_output", qr.seconds_output},
+                        {"total", total.seconds()}};
+        std::printf("%s\n", j.dump(2).c_str());
+    } else {
+        std::printf("%s: %zu triangles, all %zu inserted exactly\n", a.in.c_str(), r.triangles,
+                    r.covered_triangles);
+        std::printf("optimization: %u rounds (%s), max AMIPS %.3g -> %.3g; %llu splits, %llu "
+                    "collapses, %llu swaps, %llu smooths\n",
+                    opt.iterations, stop, opt.max_energy_before, opt.max_energy,
+                    (unsigned long long)opt.splits, (unsigned long long)opt.collapses,
+                    (unsigned long long)opt.swaps, (unsigned long long)opt.smooths);
+        std::printf("output: %zu tets, %zu vertices; AMIPS min %.3f mean %.3f max %.3f; min "
+                    "dihedral %.2f deg; boundary %s\n",
+                    v.tets.size(), v.vertices.size(), qr.quality.amips.min, qr.quality.amips.mean,
+                    qr.quality.amips.max, qr.quality.dihedral_deg.min,
+                    qr.non_manifold_edges == 0 && qr.non_manifold_vertices == 0
+                        ? "closed 2-manifold"
+                        : "NOT a closed 2-manifold");
+        std::printf("seconds: delaunay %.3f, insertion %.3f, optimization %.3f, output %.3f, "
+                    "total %.3f\n",
+                    r.seconds_delaunay, r.seconds_insertion, qr.seconds_optimization,
+                    qr.seconds_output, total.seconds());
+        std::printf("wrote %s\n", a.out.c_str());
+    }
+    return 0;
+}
+#endif
 
 int run_tetmesh(const tetmesh_arguments& a) {
 #if IDAS_CLI_HAVE_CGAL
@@ -56,11 +193,17 @@ int run_tetmesh(const tetmesh_arguments& a) {
         (!a.absolute && a.edge_length > 10))
         throw idas::input_error(
             "--edge-length must be positive and finite (at most 10 when relative)");
+    if (!(a.stop_energy >= 3) || !std::isfinite(a.stop_energy))
+        throw idas::input_error("--stop-energy must be a finite number of at least 3 (the "
+                                "AMIPS energy of a regular tet)");
+    if (a.max_iterations > 100000)
+        throw idas::input_error("--max-iterations must be at most 100000");
     tbb::global_control threads(tbb::global_control::max_allowed_parallelism, a.threads);
 
     const idas::io::surface s = load(a.in);
     idas::tetmesh::options o;
     o.epsilon = a.epsilon, o.edge_length = a.edge_length, o.absolute = a.absolute;
+    if (a.stage == "optimize") return run_tetmesh_optimized(a, s, o, total);
     idas::tetmesh::result res = idas::tetmesh::mesh_insertion(s.vertices, s.faces, o, a.in);
     const auto& r = res.stats;
     // The guarantee, checked: a failure is a bug in idas, not in the input (exit 1).

@@ -660,7 +660,7 @@ if [ "$caught" -eq 1 ]; then ok; else fail "SIGTERM: the write was never caught 
 
 # ---- tetmesh ---------------------------------------------------------------------------------
 
-run tetmesh "$DATA/hour_glass.off" "$TMP/hg.msh" --json
+run tetmesh "$DATA/hour_glass.off" "$TMP/hg.msh" --stage insertion --json
 expect_rc "tetmesh hour_glass" 0
 expect_one_json "tetmesh hour_glass"
 expect_field "tetmesh hour_glass" "d['inserted_triangles'] == d['triangles'] == 512" True
@@ -668,13 +668,13 @@ expect_field "tetmesh hour_glass" "d['inverted_tets']" 0
 expect_field "tetmesh hour_glass" "0 < d['inside_tets'] < d['tets']" True
 run info "$TMP/hg.msh" --json
 expect_rc "tetmesh output reads back" 0
-run tetmesh "$DATA/hour_glass.off" "$TMP/hg_ascii.msh" --ascii --json
+run tetmesh "$DATA/hour_glass.off" "$TMP/hg_ascii.msh" --stage insertion --ascii --json
 expect_rc "tetmesh ascii" 0
 tags=$(awk '/\$Elements/{e=1;next} /\$EndElements/{e=0} e && NF==9 {print $4}' "$TMP/hg_ascii.msh" | sort -u | tr '\n' ' ')
 if [ "$tags" = "1 2 " ]; then ok; else fail "tetmesh: MSH physical tags are '$tags', expected '1 2 '"; fi
-run tetmesh "$DATA/hour_glass.off" "$TMP/hg2.msh" --json --threads 2
+run tetmesh "$DATA/hour_glass.off" "$TMP/hg2.msh" --stage insertion --json --threads 2
 if cmp -s "$TMP/hg.msh" "$TMP/hg2.msh"; then ok; else fail "tetmesh: 1 and 2 threads give different files"; fi
-run tetmesh "$DATA/x.stl" "$TMP/x.msh" --json
+run tetmesh "$DATA/x.stl" "$TMP/x.msh" --stage insertion --json
 expect_rc "tetmesh x.stl soup" 0
 expect_field "tetmesh x.stl" "d['inserted_triangles'] == d['triangles']" True
 printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n' >"$TMP/flat.obj"
@@ -690,6 +690,21 @@ expect_error "tetmesh 1e308 coordinate" 2
 printf 'v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n' >"$TMP/degenerate.obj"
 run tetmesh "$TMP/degenerate.obj" "$TMP/degenerate.msh"
 expect_error "tetmesh only degenerate faces" 2 "degenerate"
+# The full run: insertion and optimization.
+run tetmesh "$DATA/hour_glass.off" "$TMP/hgq.msh" --json
+expect_rc "tetmesh optimize hour_glass" 0
+expect_field "tetmesh optimize" "d['optimization']['stopped']" energy_reached
+expect_field "tetmesh optimize" "d['amips']['max'] <= 10 and d['flat_or_inverted_tets'] == 0" True
+expect_field "tetmesh optimize" "d['boundary']['closed_2_manifold']" True
+run info "$TMP/hgq.msh" --json
+expect_rc "tetmesh optimized output reads back" 0
+run tetmesh "$DATA/hour_glass.off" "$TMP/hgq2.msh" --json
+if cmp -s "$TMP/hgq.msh" "$TMP/hgq2.msh"; then ok; else fail "tetmesh: two runs on one thread give different files"; fi
+run tetmesh "$DATA/hour_glass.off" "$TMP/hgq_all.msh" --keep-outside --ascii --threads 2 --json
+expect_rc "tetmesh optimize --keep-outside on 2 threads" 0
+expect_field "tetmesh --keep-outside" "d['tets'] > d['inside_tets'] > 0" True
+run tetmesh "$DATA/hour_glass.off" "$TMP/hg3.msh" --stop-energy 2
+expect_error "tetmesh stop energy below 3" 2 "stop-energy"
 run tetmesh "$DATA/hour_glass.off" "$TMP/hg.vtu"
 expect_error "tetmesh wrong extension" 2 ".msh"
 run tetmesh "$DATA/hour_glass.off" "$TMP/hg3.msh" --edge-length -1

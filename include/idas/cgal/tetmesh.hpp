@@ -8,10 +8,13 @@
 // optimization needs them), and the tracked surface says which faces cover the input.
 #pragma once
 
+#include <idas/algorithms/tet_optimization.hpp>
 #include <idas/algorithms/triangle_insertion.hpp>
 #include <idas/algorithms/winding_number.hpp>
 #include <idas/cgal/delaunay.hpp>
+#include <idas/invariants/envelope.hpp>
 #include <idas/mesh/geometry_range.hpp>
+#include <idas/mesh/tet_quality.hpp>
 
 #include <tbb/parallel_for.h>
 
@@ -178,16 +181,17 @@ inline std::size_t count_covered(const insertion::inserted_mesh& m, const clean_
     return covered.load();
 }
 
-/// Part 1 of tetrahedral meshing: exact insertion with inside and outside. Throws
-/// input_error (naming `source`) for inputs it cannot mesh.
-inline result mesh_insertion(const std::vector<vec3>& vertices,
-                             const std::vector<tri_indices>& faces, const options& opt,
-                             const std::string& source) {
+namespace detail {
+
+/// Cleaning, background, exact insertion, the cover check and rounding: part 1 without
+/// the labels. `soup` receives the cleaned input.
+inline result insert_soup(const std::vector<vec3>& vertices, const std::vector<tri_indices>& faces,
+                          const options& opt, const std::string& source, clean_soup& soup) {
     using clock = std::chrono::steady_clock;
     result out;
     report& r = out.stats;
     auto t0 = clock::now();
-    const clean_soup soup = clean(vertices, faces, source, r);
+    soup = clean(vertices, faces, source, r);
     vec3 lo = soup.vertices[0], hi = lo;
     for (const vec3& p : soup.vertices)
         for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], p[k]), hi[k] = std::max(hi[k], p[k]);
@@ -247,25 +251,274 @@ inline result mesh_insertion(const std::vector<vec3>& vertices,
     r.rational_vertices_left = insertion::round_vertices(out.mesh);
     r.seconds_rounding = detail::seconds_since(t0);
 
-    t0 = clock::now();
-    const winding_number w(soup.vertices, soup.faces);
     const auto& M = out.mesh;
-    out.inside.assign(M.tets.size(), 0);
-    out.winding.assign(M.tets.size(), 0.0);
-    tbb::parallel_for(std::size_t{0}, M.tets.size(), [&](std::size_t t) {
-        const auto& tv = M.tets[t];
-        const vec3 c =
-            (M.vertices[tv[0]] + M.vertices[tv[1]] + M.vertices[tv[2]] + M.vertices[tv[3]]) * 0.25;
-        out.winding[t] = w(c);
-        out.inside[t] = out.winding[t] > 0.5;
-    });
-    r.seconds_winding = detail::seconds_since(t0);
-
     r.tets = M.tets.size(), r.vertices = M.vertices.size(), r.tracked_faces = M.tracked.size();
-    for (auto x : out.inside) r.inside_tets += x;
     t0 = clock::now();
     r.inverted_tets = insertion::count_inverted(M);
     r.seconds_check += detail::seconds_since(t0);
+    return out;
+}
+
+/// Per tet: the winding number of the soup at its centroid, and whether it is above 1/2.
+inline void label(const winding_number& w, const std::vector<vec3>& V,
+                  const std::vector<tet_indices>& T, std::vector<double>& winding,
+                  std::vector<std::uint8_t>& inside) {
+    inside.assign(T.size(), 0);
+    winding.assign(T.size(), 0.0);
+    tbb::parallel_for(std::size_t{0}, T.size(), [&](std::size_t t) {
+        const auto& tv = T[t];
+        const vec3 c = (V[tv[0]] + V[tv[1]] + V[tv[2]] + V[tv[3]]) * 0.25;
+        winding[t] = w(c);
+        inside[t] = winding[t] > 0.5;
+    });
+}
+
+} // namespace detail
+
+/// Part 1 of tetrahedral meshing: exact insertion with inside and outside. Throws
+/// input_error (naming `source`) for inputs it cannot mesh.
+inline result mesh_insertion(const std::vector<vec3>& vertices,
+                             const std::vector<tri_indices>& faces, const options& opt,
+                             const std::string& source) {
+    clean_soup soup;
+    result out = detail::insert_soup(vertices, faces, opt, source, soup);
+    const auto t0 = std::chrono::steady_clock::now();
+    const winding_number w(soup.vertices, soup.faces);
+    detail::label(w, out.mesh.vertices, out.mesh.tets, out.winding, out.inside);
+    out.stats.seconds_winding = detail::seconds_since(t0);
+    for (auto x : out.inside) out.stats.inside_tets += x;
+    return out;
+}
+
+// ---- part 2: quality optimization and the output ------------------------------------------
+
+struct quality_options {
+    double stop_energy = 10;      ///< stop when the largest AMIPS is at most this
+    unsigned max_iterations = 80; ///< rounds of split, collapse, swap, smooth
+    unsigned threads = 1;
+    bool keep_outside = false; ///< output every tet (with its label), not only the inside
+};
+
+/// What the optimization and the output stage did.
+struct quality_report {
+    algorithms::tet_optimization_report optimization;
+    std::size_t tets = 0, vertices = 0; ///< written
+    std::size_t inside_tets = 0;        ///< of all the optimized tets
+    std::size_t added_for_manifold = 0; ///< outside tets made inside to close the boundary
+    std::size_t boundary_faces = 0;     ///< of the inside
+    std::size_t non_manifold_edges = 0; ///< of the inside's boundary, after the repair
+    std::size_t non_manifold_vertices = 0;
+    std::size_t flat_or_inverted = 0; ///< among the written tets, exact on their doubles
+    tet_quality_summary quality;      ///< of the inside tets
+    double seconds_optimization = 0, seconds_output = 0;
+};
+
+/// The final mesh: every optimized tet with its label; `inside` says which are the output.
+struct volume_mesh {
+    std::vector<vec3> vertices;
+    std::vector<tet_indices> tets;
+    std::vector<std::uint8_t> inside;
+    report insertion;
+    quality_report quality;
+};
+
+namespace detail {
+
+/// Boundary faces of the tets with `in` set (each with its tet's outward orientation),
+/// with counts of the boundary's non-manifold edges and vertices.
+struct inside_boundary {
+    std::vector<tri_indices> faces;
+    std::vector<index_t> bad_edge_vertices; ///< both ends of every non-manifold edge
+    std::vector<index_t> bad_vertices;      ///< vertices whose boundary fan is not one disk
+    std::size_t non_manifold_edges = 0;
+};
+
+inline inside_boundary boundary_of(std::size_t n_vertices, const std::vector<tet_indices>& T,
+                                   const std::vector<std::uint8_t>& in) {
+    struct rec {
+        tri_indices key;
+        tri_indices face;
+    };
+    std::vector<rec> faces;
+    for (std::size_t t = 0; t < T.size(); ++t) {
+        if (!in[t]) continue;
+        for (std::uint8_t lf = 0; lf < 4; ++lf) {
+            const auto f = tet_local::face_vertices[lf];
+            // Outward: tet_mesh's local faces are stored outward-facing for positive tets.
+            const tri_indices face{T[t][f[0]], T[t][f[1]], T[t][f[2]]};
+            faces.push_back({algorithms::detail::sorted_triple(face[0], face[1], face[2]), face});
+        }
+    }
+    std::sort(faces.begin(), faces.end(), [](const rec& a, const rec& b) { return a.key < b.key; });
+    inside_boundary out;
+    for (std::size_t i = 0; i < faces.size();) {
+        std::size_t j = i + 1;
+        while (j < faces.size() && faces[j].key == faces[i].key) ++j;
+        if (j - i == 1) out.faces.push_back(faces[i].face);
+        i = j;
+    }
+    // Edges: a closed 2-manifold has every edge in exactly two boundary faces.
+    std::vector<std::pair<index_t, index_t>> edges;
+    for (const auto& f : out.faces)
+        for (int k = 0; k < 3; ++k) edges.push_back(std::minmax(f[k], f[(k + 1) % 3]));
+    std::sort(edges.begin(), edges.end());
+    for (std::size_t i = 0; i < edges.size();) {
+        std::size_t j = i + 1;
+        while (j < edges.size() && edges[j] == edges[i]) ++j;
+        if (j - i != 2) {
+            ++out.non_manifold_edges;
+            out.bad_edge_vertices.push_back(edges[i].first);
+            out.bad_edge_vertices.push_back(edges[i].second);
+        }
+        i = j;
+    }
+    // Vertices: the faces around a vertex form one cycle (their opposite edges chain up).
+    std::vector<index_t> first(n_vertices + 1, 0), around;
+    for (const auto& f : out.faces)
+        for (index_t v : f) ++first[v + 1];
+    for (std::size_t v = 0; v < n_vertices; ++v) first[v + 1] += first[v];
+    around.resize(first[n_vertices]);
+    {
+        std::vector<index_t> fill(first.begin(), first.end() - 1);
+        for (std::size_t i = 0; i < out.faces.size(); ++i)
+            for (index_t v : out.faces[i]) around[fill[v]++] = index_t(i);
+    }
+    for (std::size_t v = 0; v < n_vertices; ++v) {
+        const index_t n = first[v + 1] - first[v];
+        if (n == 0) continue;
+        // Walk the fan from its first face by the next-vertex links; a single disk visits
+        // all n faces before it returns.
+        auto next_of = [&](index_t f) {
+            const auto& fv = out.faces[f];
+            const int i = fv[0] == v ? 0 : fv[1] == v ? 1 : 2;
+            return std::pair<index_t, index_t>(fv[(i + 1) % 3], fv[(i + 2) % 3]);
+        };
+        index_t f = around[first[v]];
+        index_t steps = 0;
+        const index_t start = next_of(f).first;
+        index_t at = next_of(f).second;
+        while (steps < n) {
+            ++steps;
+            if (at == start) break;
+            index_t nextf = invalid_index;
+            for (index_t k = first[v]; k < first[v + 1]; ++k)
+                if (next_of(around[k]).first == at) {
+                    nextf = around[k];
+                    break;
+                }
+            if (nextf == invalid_index) break;
+            f = nextf, at = next_of(f).second;
+        }
+        if (!(at == start && steps == n)) out.bad_vertices.push_back(index_t(v));
+    }
+    return out;
+}
+
+/// Makes the inside's boundary a closed 2-manifold by adding outside tets around its
+/// non-manifold edges and vertices (each round adds at least one tet, and the whole box is
+/// a closed manifold, so it ends). Returns how many tets were added.
+inline std::size_t close_boundary(std::size_t n_vertices, const std::vector<tet_indices>& T,
+                                  std::vector<std::uint8_t>& in) {
+    const auto [first, star] = insertion::detail::vertex_stars(n_vertices, T);
+    std::size_t added = 0;
+    for (;;) {
+        const inside_boundary b = boundary_of(n_vertices, T, in);
+        if (b.bad_edge_vertices.empty() && b.bad_vertices.empty()) return added;
+        std::size_t before = added;
+        for (const auto* list : {&b.bad_edge_vertices, &b.bad_vertices})
+            for (index_t v : *list)
+                for (index_t k = first[v]; k < first[v + 1]; ++k)
+                    if (!in[star[k]]) in[star[k]] = 1, ++added;
+        if (added == before) return added; // cannot happen; no endless loop either way
+    }
+}
+
+} // namespace detail
+
+/// Tetrahedral meshing of a triangle soup, parts 1 and 2: exact insertion, quality
+/// optimization on the executor (algorithms/tet_optimization.hpp) inside the envelope of
+/// the input at epsilon, and the inside by winding number with a closed 2-manifold
+/// boundary. Throws input_error (naming `source`) for inputs it cannot mesh.
+template <class Observer = algorithms::no_round_observer>
+volume_mesh mesh_volume(const std::vector<vec3>& vertices, const std::vector<tri_indices>& faces,
+                        const options& opt, const quality_options& q, const std::string& source,
+                        Observer&& observer = {}) {
+    using clock = std::chrono::steady_clock;
+    if (!(q.stop_energy >= 3) || !std::isfinite(q.stop_energy))
+        throw input_error("the stop energy must be a finite number of at least 3 (the AMIPS "
+                          "energy of a regular tet)");
+    volume_mesh out;
+    clean_soup soup;
+    result part1 = detail::insert_soup(vertices, faces, opt, source, soup);
+    out.insertion = part1.stats;
+    quality_report& qr = out.quality;
+
+    auto t0 = clock::now();
+    const insertion::inserted_mesh& M = part1.mesh;
+    const winding_number w(soup.vertices, soup.faces);
+    {
+        // Nothing inside (a flat or open sheet): say so before optimizing anything.
+        std::vector<double> wn;
+        std::vector<std::uint8_t> in;
+        detail::label(w, M.vertices, M.tets, wn, in);
+        if (std::find(in.begin(), in.end(), 1) == in.end())
+            throw input_error(source + ": the input encloses no volume (no tet has a winding "
+                                       "number above 1/2)");
+    }
+    tet_mesh<> m(M.vertices, M.tets, tet_mesh<>::orientation_checked_by_caller{});
+    auto tracked = m.add_tet_attribute<std::uint8_t>("tracked", 0);
+    {
+        std::vector<tri_indices> keys;
+        keys.reserve(M.tracked.size());
+        for (const auto& f : M.tracked)
+            keys.push_back(algorithms::detail::sorted_triple(f[0], f[1], f[2]));
+        std::sort(keys.begin(), keys.end());
+        auto col = m.attribute(tracked);
+        for (index_t g = 0; g < m.tet_slots(); ++g) {
+            const auto& tv = m.tet_vertices(g);
+            for (std::uint8_t lf = 0; lf < 4; ++lf) {
+                const auto f = tet_local::face_vertices[lf];
+                if (std::binary_search(
+                        keys.begin(), keys.end(),
+                        algorithms::detail::sorted_triple(tv[f[0]], tv[f[1]], tv[f[2]])))
+                    col.raw(g) |= std::uint8_t(1u << lf);
+            }
+        }
+    }
+    const envelope env(soup.vertices, soup.faces, out.insertion.epsilon);
+    const triangle_aabb_tree input(soup.vertices, soup.faces);
+    algorithms::tet_optimization_options o;
+    o.target_length = out.insertion.edge_length;
+    o.stop_energy = q.stop_energy, o.max_iterations = q.max_iterations;
+    exec_options exec;
+    exec.threads = std::max(1u, q.threads);
+    qr.optimization = algorithms::tet_optimization<envelope>::run(m, tracked, M.exact, env, input,
+                                                                  o, exec, observer);
+    qr.seconds_optimization = detail::seconds_since(t0);
+
+    t0 = clock::now();
+    auto [V, T] = m.to_arrays();
+    std::vector<double> winding;
+    detail::label(w, V, T, winding, out.inside);
+    for (auto x : out.inside) qr.inside_tets += x;
+    if (qr.inside_tets == 0)
+        throw input_error(source + ": the input encloses no volume (no tet has a winding "
+                                   "number above 1/2)");
+    qr.added_for_manifold = detail::close_boundary(V.size(), T, out.inside);
+    const detail::inside_boundary b = detail::boundary_of(V.size(), T, out.inside);
+    qr.boundary_faces = b.faces.size();
+    qr.non_manifold_edges = b.non_manifold_edges;
+    qr.non_manifold_vertices = b.bad_vertices.size();
+    std::vector<tet_indices> kept;
+    for (std::size_t t = 0; t < T.size(); ++t)
+        if (out.inside[t]) kept.push_back(T[t]);
+    qr.quality = summarize_tet_quality(V, kept);
+    qr.flat_or_inverted = qr.quality.inverted + qr.quality.flat;
+    out.vertices = std::move(V);
+    out.tets = std::move(T);
+    qr.tets = q.keep_outside ? out.tets.size() : kept.size();
+    qr.vertices = out.vertices.size();
+    qr.seconds_output = detail::seconds_since(t0);
     return out;
 }
 

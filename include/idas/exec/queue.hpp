@@ -21,6 +21,17 @@ struct queue_entry {
     std::uint8_t retries; // failed lock attempts so far
 };
 
+/// The order that breaks priority ties, so runs are deterministic whatever a heap does
+/// with equal keys: by cell and local simplex (and on tets by vertex, as a collapse is
+/// queued from both ends of its edge).
+constexpr auto tie_key(const tri_tuple& t) noexcept {
+    return std::array<std::uint64_t, 2>{std::uint64_t(t.fid) << 8 | t.local_edge, 0};
+}
+constexpr auto tie_key(const tet_tuple& t) noexcept {
+    return std::array<std::uint64_t, 2>{
+        std::uint64_t(t.tid) << 8 | t.local_edge << 4 | t.local_face, t.vid};
+}
+
 template <class Q, class E>
 concept queue_for = std::default_initializable<Q> && requires(Q q, const E& e, E& out) {
     {q.push(e)};
@@ -68,8 +79,7 @@ struct binary_heap {
         // Ties are broken by tuple, so runs are deterministic whatever the heap does.
         static bool later(const E& a, const E& b) noexcept {
             if (a.priority != b.priority) return a.priority > b.priority;
-            if (a.tuple.fid != b.tuple.fid) return a.tuple.fid > b.tuple.fid;
-            return a.tuple.local_edge > b.tuple.local_edge;
+            return tie_key(a.tuple) > tie_key(b.tuple);
         }
         std::vector<E> heap_;
     };
@@ -130,8 +140,7 @@ struct dary_heap {
         }
         static bool earlier(const E& a, const E& b) noexcept {
             if (a.priority != b.priority) return a.priority < b.priority;
-            if (a.tuple.fid != b.tuple.fid) return a.tuple.fid < b.tuple.fid;
-            return a.tuple.local_edge < b.tuple.local_edge;
+            return tie_key(a.tuple) < tie_key(b.tuple);
         }
         std::vector<E> heap_;
     };
@@ -266,8 +275,7 @@ struct bucket_heap {
         }
         static bool later(const E& a, const E& b) noexcept {
             if (a.priority != b.priority) return a.priority > b.priority;
-            if (a.tuple.fid != b.tuple.fid) return a.tuple.fid > b.tuple.fid;
-            return a.tuple.local_edge > b.tuple.local_edge;
+            return tie_key(a.tuple) > tie_key(b.tuple);
         }
         std::vector<std::vector<E>> buckets_; // allocated on the first push
         std::array<std::uint64_t, buckets / 64> words_{};

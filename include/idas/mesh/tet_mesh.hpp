@@ -77,14 +77,28 @@ public:
     /// positively oriented (exact orient3d > 0), and every face is shared by at most two
     /// tets lying on opposite sides of it.
     tet_mesh(const std::vector<vec3>& vertices, const std::vector<tet_indices>& tets)
+        : tet_mesh(vertices, tets, true) {}
+
+    /// The same checks but the orientation one, for tets positive in exact coordinates
+    /// that `vertices` only approximates (rational vertices of tetrahedral meshing, which
+    /// its own exact invariant checks): the caller vouches for their orientation.
+    struct orientation_checked_by_caller {};
+    tet_mesh(const std::vector<vec3>& vertices, const std::vector<tet_indices>& tets,
+             orientation_checked_by_caller)
+        : tet_mesh(vertices, tets, false) {}
+
+private:
+    tet_mesh(const std::vector<vec3>& vertices, const std::vector<tet_indices>& tets,
+             bool check_orientation)
         : tet_mesh() {
-        check_input(vertices, tets);
+        check_input(vertices, tets, check_orientation);
         conn_.build(static_cast<index_t>(vertices.size()), tets);
         grow_attributes();
         auto p = positions();
         for (index_t v = 0; v < vertices.size(); ++v) p.raw(v) = vertices[v];
     }
 
+public:
     // ---- sizes ----
     index_t vertex_slots() const noexcept { return conn_.vertex_slots(); }
     index_t tet_slots() const noexcept { return conn_.tet_slots(); }
@@ -620,8 +634,8 @@ public:
     friend bool operator==(const tet_mesh& a, const tet_mesh& b) = delete;
 
 private:
-    static void check_input(const std::vector<vec3>& vertices,
-                            const std::vector<tet_indices>& tets) {
+    static void check_input(const std::vector<vec3>& vertices, const std::vector<tet_indices>& tets,
+                            bool check_orientation) {
         if (vertices.size() >= invalid_index) throw input_error("too many vertices");
         if (tets.size() >= invalid_index / 6) throw input_error("too many tets");
         for (std::size_t i = 0; i < vertices.size(); ++i)
@@ -640,6 +654,7 @@ private:
                     if (tv[i] == tv[j])
                         throw input_error(tet_name(t) + " is degenerate: it uses vertex " +
                                           std::to_string(tv[i]) + " twice");
+            if (!check_orientation) continue;
             const int o =
                 orient3d(vertices[tv[0]], vertices[tv[1]], vertices[tv[2]], vertices[tv[3]]);
             if (o == 0)

@@ -85,6 +85,46 @@ inline double tet_amips(const vec3& a, const vec3& b, const vec3& c, const vec3&
     return frobenius_sq / std::cbrt(det * det);
 }
 
+/// AMIPS of the tet (p, b, c, d) as a function of its first vertex p, with its gradient
+/// and Hessian there, for Newton smoothing of p. With J as above, f = |J|_F^2 and
+/// g = det J (affine in p):
+///     grad f = -2 (j1 + j2 / sqrt3 + j3 / sqrt6),  Hess f = 3 I,
+///     grad g = -sqrt2 (c - b) x (d - b),           Hess g = 0,
+/// and E = f g^(-2/3) gives
+///     grad E = g^(-2/3) grad f - 2/3 f g^(-5/3) grad g,
+///     Hess E = g^(-2/3) Hess f - 2/3 g^(-5/3) (grad f grad g^T + grad g grad f^T)
+///              + 10/9 f g^(-8/3) grad g grad g^T.
+/// The energy is +infinity (and the derivatives zero) when the computed det J <= 0: a
+/// flat or inverted tet is a barrier, never a minimum to move towards.
+struct amips_derivatives {
+    double energy = std::numeric_limits<double>::infinity();
+    vec3 gradient{};
+    std::array<double, 9> hessian{}; // row-major, symmetric
+};
+
+inline amips_derivatives tet_amips_derivatives(const vec3& p, const vec3& b, const vec3& c,
+                                               const vec3& d) noexcept {
+    amips_derivatives out;
+    const vec3 u = b - p, v = c - p, w = d - p;
+    const double inv_sqrt3 = 1 / std::numbers::sqrt3, inv_sqrt6 = 1 / std::sqrt(6.0);
+    const vec3 j1 = u, j2 = (2 * v - u) * inv_sqrt3, j3 = (3 * w - u - v) * inv_sqrt6;
+    const double g = std::numbers::sqrt2 * dot(u, cross(v, w));
+    if (!(g > 0)) return out;
+    const double f = squared_norm(j1) + squared_norm(j2) + squared_norm(j3);
+    const vec3 gf = (j1 + j2 * inv_sqrt3 + j3 * inv_sqrt6) * -2.0;
+    const vec3 gg = cross(c - b, d - b) * -std::numbers::sqrt2;
+    const double g23 = 1 / std::cbrt(g * g); // g^(-2/3)
+    const double g53 = g23 / g, g83 = g53 / g;
+    out.energy = f * g23;
+    out.gradient = gf * g23 - gg * (2.0 / 3.0 * f * g53);
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+            out.hessian[3 * i + j] = (i == j ? 3.0 * g23 : 0.0) -
+                                     2.0 / 3.0 * g53 * (gf[i] * gg[j] + gg[i] * gf[j]) +
+                                     10.0 / 9.0 * f * g83 * gg[i] * gg[j];
+    return out;
+}
+
 struct tet_quality_summary {
     struct range {
         double min = 0, mean = 0, max = 0;

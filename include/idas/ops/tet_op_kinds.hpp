@@ -13,6 +13,12 @@ namespace idas {
 /// Longest edge ring edge_removal handles (its dynamic programme is cubic in the ring).
 inline constexpr std::size_t max_edge_ring = 24;
 
+/// Most tets around an edge that split_tet_edge handles. Far more than a good mesh has:
+/// an edge that cannot be split while it is too long makes the splits around it refine
+/// its ring without end, and meshes straight out of triangle insertion have edges with
+/// over a hundred tets.
+inline constexpr std::size_t max_split_ring = 512;
+
 namespace op {
 /// 2-3 swap: the two tets on an interior face become three tets around a new edge.
 struct face_swap_23 {
@@ -29,6 +35,13 @@ struct edge_swap_44 {
     static constexpr simplex_kind acts_on = simplex_kind::edge;
     static constexpr index_t adds_vertices = 0, adds_faces = 0;
 };
+/// Edge split on a tet mesh (ops/tet_ops.hpp's split_edge under a kind of its own): the
+/// n tets around the edge become 2n, so a parallel worker needs room for n new tets. It is
+/// refused on edges with more than max_split_ring tets, so the room it asks for suffices.
+struct split_tet_edge {
+    static constexpr simplex_kind acts_on = simplex_kind::edge;
+    static constexpr index_t adds_vertices = 1, adds_faces = index_t(max_split_ring);
+};
 /// Edge removal: the n tets around an interior edge become 2n - 4 tets.
 struct edge_removal {
     static constexpr simplex_kind acts_on = simplex_kind::edge;
@@ -36,7 +49,8 @@ struct edge_removal {
 };
 } // namespace op
 
-static_assert(operation_kind<op::face_swap_23> && operation_kind<op::edge_swap_32> &&
-              operation_kind<op::edge_swap_44> && operation_kind<op::edge_removal>);
+static_assert(operation_kind<op::split_tet_edge> && operation_kind<op::face_swap_23> &&
+              operation_kind<op::edge_swap_32> && operation_kind<op::edge_swap_44> &&
+              operation_kind<op::edge_removal>);
 
 } // namespace idas

@@ -322,14 +322,13 @@ bool triangle_face_free(const Mesh& m, const edge_ring& r) {
 
 } // namespace detail
 
-/// Splits the tuple's edge ab at a new vertex m: every tet abxy becomes amxy and mbxy.
-/// New tets: the 2n tets around m. Anchor: m, on the edge (m, a). `after` must set m's
-/// position. Allowed on boundary edges (it refines the boundary).
-template <class B, class Spec = no_spec>
-std::optional<op_result<tet_tuple>> split_edge(tet_mesh<B>& m, const tet_tuple& t, Spec&& spec,
-                                               op_context<tet_mesh<B>>& ctx) {
+namespace detail {
+/// The edge split, under operation kind Op (split_edge or split_tet_edge).
+template <class Op, class B, class Spec>
+std::optional<op_result<tet_tuple>> split_tet_edge_as(tet_mesh<B>& m, const tet_tuple& t,
+                                                      Spec& spec, op_context<tet_mesh<B>>& ctx) {
     if (!m.is_valid(t)) return std::nullopt;
-    return detail::run_tri_operation<op::split_edge>(m, t, spec, ctx, [&] {
+    return run_tri_operation<Op>(m, t, spec, ctx, [&] {
         const auto [a, b] = m.edge_vertices(t);
         auto& tets = ctx.scratch;
         tets.clear();
@@ -339,13 +338,23 @@ std::optional<op_result<tet_tuple>> split_edge(tet_mesh<B>& m, const tet_tuple& 
         ctx.pending_faces = static_cast<std::int64_t>(tets.size()), ctx.pending_vertices = 1;
         for (index_t g : tets) {
             const tet_indices old = m.tet_vertices(g);
-            m.set_tet(g, detail::replaced(old, b, nv), ctx.conn);
-            const index_t h = m.add_tet(detail::replaced(old, a, nv), ctx.conn);
-            detail::emit_tet(m, ctx, nv, g, g);
-            detail::emit_tet(m, ctx, nv, h, g);
+            m.set_tet(g, replaced(old, b, nv), ctx.conn);
+            const index_t h = m.add_tet(replaced(old, a, nv), ctx.conn);
+            emit_tet(m, ctx, nv, g, g);
+            emit_tet(m, ctx, nv, h, g);
         }
         return m.tuple_at(tets.front(), nv, a);
     });
+}
+} // namespace detail
+
+/// Splits the tuple's edge ab at a new vertex m: every tet abxy becomes amxy and mbxy.
+/// New tets: the 2n tets around m. Anchor: m, on the edge (m, a). `after` must set m's
+/// position. Allowed on boundary edges (it refines the boundary).
+template <class B, class Spec = no_spec>
+std::optional<op_result<tet_tuple>> split_edge(tet_mesh<B>& m, const tet_tuple& t, Spec&& spec,
+                                               op_context<tet_mesh<B>>& ctx) {
+    return detail::split_tet_edge_as<op::split_edge>(m, t, spec, ctx);
 }
 
 /// Collapses the tuple's edge ab into a (the tuple's vertex survives, b is removed).
@@ -540,6 +549,16 @@ std::optional<op_result<tet_tuple>> edge_removal(tet_mesh<B>& m, const tet_tuple
 
 // The tet-only kinds map to their functions by overload, as the triangle core's kinds do
 // (ops/tri_ops.hpp), so the executor dispatches on the kind type at compile time.
+template <class B, class Spec>
+std::optional<op_result<tet_tuple>> apply(op::split_tet_edge, tet_mesh<B>& m, const tet_tuple& t,
+                                          Spec& s, op_context<tet_mesh<B>>& c) {
+    if (!m.is_valid(t)) return std::nullopt;
+    const auto [a, b] = m.edge_vertices(t);
+    std::size_t n = 0;
+    for (index_t g : m.vertex_tets(a)) n += tet_local::contains(m.tet_vertices(g), b) ? 1 : 0;
+    if (n > max_split_ring) return std::nullopt; // more new tets than the kind has room for
+    return detail::split_tet_edge_as<op::split_tet_edge>(m, t, s, c);
+}
 template <class B, class Spec>
 auto apply(op::face_swap_23, tet_mesh<B>& m, const tet_tuple& t, Spec& s,
            op_context<tet_mesh<B>>& c) {

@@ -1,0 +1,905 @@
+// TetWild's mesh improvement (Hu et al. 2018, 2020) as four IDAS specs run in turn, one
+// executor each, until the worst tet is good enough:
+//
+//   split     edges longer than 4/3 of the local target length, at their midpoints,
+//             longest first
+//   collapse  edges shorter than 4/5 of it, shortest first, into one end, unless the
+//             largest AMIPS energy of the changed tets would rise
+//   swap      edge removal (3-2, 4-4 and n-(2n-4) swaps, the best triangulation of the
+//             ring) and 2-3 face swaps around the tets whose energy is above a bar, when
+//             they lower the largest energy of the tets they replace, worst tets first
+//   smooth    each vertex one Newton step on the AMIPS energy of its star (line search),
+//             accepted when the star's sum falls and its maximum does not rise; surface
+//             vertices are projected back onto the input
+//
+//   I  every tet positively oriented (exact orient3d; on the exact coordinates where a
+//      vertex is still rational); every tracked face inside the input's envelope
+//   A  per tet: which of its faces are tracked (cover the input); per vertex: its kind
+//      (surface, feature, rational) and the scale of the local target length
+//   S  as above; after each round, rational vertices are rounded where every tet stays
+//      positive, and where the largest energy stalled the target length is halved
+//      around the tets above the stop energy (fTetWild's adaptive sizing); stop when the
+//      largest energy is at most the stop energy, or after the iteration limit
+//
+// What must stay: the tracked surface (a tracked face is never swapped away, a surface
+// vertex moves or vanishes only along the surface and within the envelope), its border
+// and intersection curves (feature vertices never move or vanish), and the bounding box
+// (a vertex on a box plane stays on it: splits keep the coordinate, collapses need the
+// survivor on every plane of the removed vertex, smoothing keeps it).
+#pragma once
+
+#include <idas/core/aabb_tree.hpp>
+#include <idas/exec/executor.hpp>
+#include <idas/exec/schedule.hpp>
+#include <idas/exec/workers.hpp>
+#include <idas/mesh/temporary_attribute.hpp>
+#include <idas/mesh/tet_mesh.hpp>
+#include <idas/mesh/tet_quality.hpp>
+#include <idas/ops/tet_ops.hpp>
+#include <idas/predicates/rational.hpp>
+
+#include <boost/container/small_vector.hpp>
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <optional>
+#include <unordered_map>
+#include <vector>
+
+namespace idas::algorithms {
+
+/// Bits of a vertex's kind during tet optimization.
+namespace tet_vertex {
+inline constexpr std::uint8_t surface = 1;  ///< on a tracked face
+inline constexpr std::uint8_t feature = 2;  ///< on a tracked edge without exactly two tracked
+                                            ///< faces (open border, intersection): stays put
+inline constexpr std::uint8_t rational = 4; ///< exact position only in the rational table
+} // namespace tet_vertex
+
+/// An envelope of the input surface: exact containment of triangles.
+template <class E>
+concept triangle_envelope = requires(const E& e, const vec3& p) {
+    { e.contains(p, p, p) } -> std::convertible_to<bool>;
+};
+
+struct tet_optimization_options {
+    double target_length = 0;     ///< absolute target edge length L (> 0)
+    double stop_energy = 10;      ///< stop when the largest AMIPS is at most this
+    unsigned max_iterations = 80; ///< rounds of split, collapse, swap, smooth
+    double swap_above = 8;        ///< swaps are tried around tets with AMIPS above this
+    double min_scale = 1.0 / 32;  ///< adaptive sizing never shrinks L below this fraction
+};
+
+enum class tet_optimization_stop { energy_reached, iteration_limit, already_good };
+
+struct tet_optimization_report {
+    unsigned iterations = 0;
+    tet_optimization_stop stopped = tet_optimization_stop::iteration_limit;
+    std::uint64_t splits = 0, collapses = 0, swaps = 0, smooths = 0, rounded = 0;
+    std::uint64_t sizing_refinements = 0; ///< vertices whose target length was halved
+    std::size_t rational_left = 0;
+    double max_energy_before = 0, max_energy = 0;
+    std::vector<double> max_energy_history; ///< after each round
+    std::array<run_report, 4> phases{};     ///< split, collapse, swap, smooth: summed
+    double seconds = 0;
+};
+
+/// Hears nothing of the rounds (the default observer).
+struct no_round_observer {
+    void operator()(unsigned, double) const noexcept {}
+};
+
+/// What the phase specs share. The attribute columns belong to the run.
+struct tet_optimization_state {
+    double L = 0;
+    double swap_above = 4;
+    tet_attribute<std::uint8_t> tracked; ///< bit lf: local face lf is tracked
+    vertex_attribute<std::uint8_t> kind; ///< tet_vertex bits
+    vertex_attribute<double> scale;      ///< local target length: L times this
+    /// Exact positions of the vertices whose kind has tet_vertex::rational. Read-only
+    /// while phases run.
+    const std::unordered_map<index_t, rational_point>* exact = nullptr;
+    const triangle_aabb_tree* input = nullptr; ///< the input surface, for projection
+    vec3 box_lo{}, box_hi{};                   ///< the background's bounding box
+
+    /// Which box planes p lies on: bit 2k for the low plane of axis k, 2k+1 for the high.
+    std::uint8_t box_planes(const vec3& p) const noexcept {
+        std::uint8_t m = 0;
+        for (int k = 0; k < 3; ++k) {
+            if (p[k] == box_lo[k]) m |= std::uint8_t(1u << (2 * k));
+            if (p[k] == box_hi[k]) m |= std::uint8_t(1u << (2 * k + 1));
+        }
+        return m;
+    }
+};
+
+namespace detail {
+
+inline tri_indices sorted_triple(index_t a, index_t b, index_t c) noexcept {
+    if (a > b) std::swap(a, b);
+    if (b > c) std::swap(b, c);
+    if (a > b) std::swap(a, b);
+    return {a, b, c};
+}
+
+/// Tracked faces (sorted vertex triples) among the tets an operation replaces.
+using tracked_faces = boost::container::small_vector<tri_indices, 24>;
+
+inline bool has(const tri_indices& k, index_t v) noexcept {
+    return k[0] == v || k[1] == v || k[2] == v;
+}
+
+inline bool holds(const tracked_faces& l, const tri_indices& k) noexcept {
+    return std::find(l.begin(), l.end(), k) != l.end();
+}
+
+template <class Mesh>
+void gather_tracked(const Mesh& m, const tet_optimization_state& s, index_t g, tracked_faces& out) {
+    const std::uint8_t bits = m.attribute(s.tracked)[g];
+    if (!bits) return;
+    const auto& tv = m.tet_vertices(g);
+    for (std::uint8_t lf = 0; lf < 4; ++lf)
+        if (bits >> lf & 1u) {
+            const auto f = tet_local::face_vertices[lf];
+            const tri_indices k = sorted_triple(tv[f[0]], tv[f[1]], tv[f[2]]);
+            if (!holds(out, k)) out.push_back(k);
+        }
+}
+
+/// Sets the tracked bits of the operation's new tets: face lf is tracked iff
+/// `tracked(sorted triple)` says so.
+template <class Mesh, class Tracked>
+void retrack(Mesh& m, const tet_optimization_state& s, const op_result<tet_tuple>& r,
+             Tracked&& tracked) {
+    auto col = m.attribute(s.tracked);
+    for (const tet_tuple& c : r.cells) {
+        const auto& tv = m.tet_vertices(c.tid);
+        std::uint8_t bits = 0;
+        for (std::uint8_t lf = 0; lf < 4; ++lf) {
+            const auto f = tet_local::face_vertices[lf];
+            if (tracked(c.tid, lf, sorted_triple(tv[f[0]], tv[f[1]], tv[f[2]])))
+                bits |= std::uint8_t(1u << lf);
+        }
+        if (col[c.tid] != bits) col.set(c.tid, bits);
+    }
+}
+
+template <class Mesh>
+double amips(const Mesh& m, const tet_indices& t) {
+    const auto p = m.positions();
+    return tet_amips(p[t[0]], p[t[1]], p[t[2]], p[t[3]]);
+}
+
+/// Each edge (v, w) with w > v of v's star once, as a tuple at v.
+template <class Mesh, class Fn>
+void for_each_tet_edge_from(const Mesh& m, index_t v, Fn&& fn) {
+    boost::container::small_vector<index_t, 32> seen;
+    for (index_t g : m.vertex_tets(v))
+        for (index_t w : m.tet_vertices(g))
+            if (w > v && std::find(seen.begin(), seen.end(), w) == seen.end()) {
+                seen.push_back(w);
+                fn(m.tuple_at(g, v, w));
+            }
+}
+
+/// The edges of an operation's new tets, each once.
+template <class Mesh, class Fn>
+void for_each_new_edge(const Mesh& m, const op_result<tet_tuple>& r, Fn&& fn) {
+    boost::container::small_vector<std::pair<index_t, index_t>, 64> seen;
+    for (const tet_tuple& c : r.cells) {
+        const auto& tv = m.tet_vertices(c.tid);
+        for (std::uint8_t le = 0; le < 6; ++le) {
+            const auto ev = tet_local::edge_vertices[le];
+            const std::pair<index_t, index_t> key = std::minmax(tv[ev[0]], tv[ev[1]]);
+            if (std::find(seen.begin(), seen.end(), key) != seen.end()) continue;
+            seen.push_back(key);
+            fn(m.tuple_from_edge(c.tid, le));
+        }
+    }
+}
+
+/// Squared local target length of edge ab.
+template <class Mesh>
+double target_squared(const Mesh& m, const tet_optimization_state& s, index_t a, index_t b) {
+    const auto sc = m.attribute(s.scale);
+    const double l = s.L * 0.5 * (sc[a] + sc[b]);
+    return l * l;
+}
+
+} // namespace detail
+
+/// Invariant: every new tet is positively oriented, by an exact orient3d on the exact
+/// positions (rational ones where a vertex's kind says so).
+struct exact_orientation {
+    const tet_optimization_state* s = nullptr;
+    struct state {};
+
+    template <class Op, class Mesh, class Result>
+    bool after(Op, const Mesh& m, const Result& r, state&) const {
+        const auto p = m.positions();
+        const auto kind = m.attribute(s->kind);
+        for (const auto& c : r.cells) {
+            const auto& tv = m.tet_vertices(c.tid);
+            bool rational = false;
+            for (index_t v : tv) rational = rational || (kind[v] & tet_vertex::rational);
+            if (!rational) {
+                if (orient3d(p[tv[0]], p[tv[1]], p[tv[2]], p[tv[3]]) <= 0) return false;
+                continue;
+            }
+            std::array<rational_point, 4> q;
+            for (int i = 0; i < 4; ++i)
+                q[i] = kind[tv[i]] & tet_vertex::rational ? s->exact->at(tv[i])
+                                                          : to_rational(p[tv[i]]);
+            if (orient3d(q[0], q[1], q[2], q[3]) <= 0) return false;
+        }
+        return true;
+    }
+};
+
+/// Invariant: every tracked face of the new tets lies inside the envelope.
+template <triangle_envelope Envelope>
+struct tracked_in_envelope {
+    const Envelope* envelope = nullptr;
+    const tet_optimization_state* s = nullptr;
+    struct state {};
+
+    template <class Op, class Mesh, class Result>
+    bool after(Op, const Mesh& m, const Result& r, state&) const {
+        const auto p = m.positions();
+        const auto tracked = m.attribute(s->tracked);
+        for (const auto& c : r.cells) {
+            const std::uint8_t bits = tracked[c.tid];
+            if (!bits) continue;
+            const auto& tv = m.tet_vertices(c.tid);
+            for (std::uint8_t lf = 0; lf < 4; ++lf) {
+                if (!(bits >> lf & 1u)) continue;
+                // Each tracked face is in two new tets; test it from the one that holds it
+                // with the smaller slot, or from the only one.
+                const index_t other = m.connectivity().opposite_tet(c.tid, lf);
+                if (other != invalid_index && other < c.tid &&
+                    std::any_of(r.cells.begin(), r.cells.end(),
+                                [&](const tet_tuple& x) { return x.tid == other; }))
+                    continue;
+                const auto f = tet_local::face_vertices[lf];
+                if (!envelope->contains(p[tv[f[0]]], p[tv[f[1]]], p[tv[f[2]]])) return false;
+            }
+        }
+        return true;
+    }
+};
+
+static_assert(invariant<exact_orientation>);
+
+/// The two invariants every phase shares.
+template <class Envelope>
+struct tet_optimization_invariants {
+    tet_optimization_state& s;
+    const Envelope& envelope;
+    static constexpr bool allow_boundary_change = true; // the box rules are the specs' own
+    auto invariants() const {
+        return invariant_set<exact_orientation, tracked_in_envelope<Envelope>>(
+            exact_orientation{&s}, tracked_in_envelope<Envelope>{&envelope, &s});
+    }
+};
+
+template <class Envelope>
+struct tet_split_spec : tet_optimization_invariants<Envelope> {
+    using operations = op_list<op::split_tet_edge>;
+    using tet_optimization_invariants<Envelope>::s;
+
+    struct cache {
+        index_t a, b;
+        vec3 position;
+        std::uint8_t kind;
+        double scale;
+        detail::tracked_faces tracked;
+    };
+
+    template <class Mesh>
+    bool too_long(const Mesh& m, index_t a, index_t b) const {
+        return squared_norm(m.position(a) - m.position(b)) >
+               16.0 / 9.0 * detail::target_squared(m, s, a, b);
+    }
+    template <class Mesh, class Push>
+    void initial_at(const Mesh& m, index_t v, Push& push) const {
+        detail::for_each_tet_edge_from(m, v, [&](const tet_tuple& t) {
+            if (too_long(m, v, m.edge_vertices(t).second)) push(op::split_tet_edge{}, t);
+        });
+    }
+    template <class Mesh>
+    double priority(op::split_tet_edge, const Mesh& m, const tet_tuple& t) const {
+        const auto [a, b] = m.edge_vertices(t);
+        return -squared_norm(m.position(a) - m.position(b)); // longest first
+    }
+    template <class Mesh>
+    std::optional<cache> before(op::split_tet_edge, const Mesh& m, const tet_tuple& t) const {
+        const auto [a, b] = m.edge_vertices(t);
+        if (!too_long(m, a, b)) return std::nullopt;
+        // Built in place: moving the small vector out of a local trips a false GCC warning.
+        std::optional<cache> out(std::in_place, a, b, (m.position(a) + m.position(b)) * 0.5,
+                                 std::uint8_t(0), 0.0, detail::tracked_faces{});
+        cache& c = *out;
+        int faces_on_edge = 0;
+        for (index_t g : m.vertex_tets(a)) {
+            const auto& tv = m.tet_vertices(g);
+            if (!tet_local::contains(tv, b)) continue;
+            detail::gather_tracked(m, s, g, c.tracked);
+        }
+        for (const auto& k : c.tracked) faces_on_edge += detail::has(k, a) && detail::has(k, b);
+        if (faces_on_edge > 0) c.kind |= tet_vertex::surface;
+        if (faces_on_edge > 0 && faces_on_edge != 2) c.kind |= tet_vertex::feature;
+        const auto sc = m.attribute(s.scale);
+        c.scale = 0.5 * (sc[a] + sc[b]);
+        return out;
+    }
+    template <class Mesh>
+    bool after(op::split_tet_edge, Mesh& m, const op_result<tet_tuple>& r, cache& c) const {
+        const index_t v = r.anchor.vid;
+        m.positions().set(v, c.position);
+        m.attribute(s.kind).set(v, c.kind);
+        m.attribute(s.scale).set(v, c.scale);
+        // A face through v lies in the old face through edge ab if it holds a or b, and
+        // inside an old tet (untracked) otherwise.
+        detail::retrack(m, s, r, [&](index_t, std::uint8_t, const tri_indices& k) {
+            if (!detail::has(k, v)) return detail::holds(c.tracked, k);
+            index_t other = invalid_index;
+            bool on_ab = false;
+            for (index_t x : k) {
+                if (x == c.a || x == c.b)
+                    on_ab = true;
+                else if (x != v)
+                    other = x;
+            }
+            return on_ab && other != invalid_index &&
+                   detail::holds(c.tracked, detail::sorted_triple(c.a, c.b, other));
+        });
+        return true;
+    }
+    template <class Mesh, class Push>
+    void renew(op::split_tet_edge, const Mesh& m, const op_result<tet_tuple>& r, Push& push) const {
+        detail::for_each_new_edge(m, r, [&](const tet_tuple& t) {
+            const auto [a, b] = m.edge_vertices(t);
+            if (too_long(m, a, b)) push(op::split_tet_edge{}, t);
+        });
+    }
+};
+
+template <class Envelope>
+struct tet_collapse_spec : tet_optimization_invariants<Envelope> {
+    using operations = op_list<op::collapse_edge>;
+    using tet_optimization_invariants<Envelope>::s;
+
+    struct cache {
+        index_t b;
+        detail::tracked_faces tracked;
+    };
+
+    template <class Mesh>
+    bool too_short(const Mesh& m, index_t a, index_t b) const {
+        return squared_norm(m.position(a) - m.position(b)) <
+               0.64 * detail::target_squared(m, s, a, b);
+    }
+    /// Both directions: the tuple's vertex survives.
+    template <class Mesh, class Push>
+    void push_both(const Mesh& m, const tet_tuple& t, Push& push) const {
+        const auto [a, b] = m.edge_vertices(t);
+        if (!too_short(m, a, b)) return;
+        push(op::collapse_edge{}, t);
+        push(op::collapse_edge{}, m.switch_vertex(t));
+    }
+    template <class Mesh, class Push>
+    void initial_at(const Mesh& m, index_t v, Push& push) const {
+        detail::for_each_tet_edge_from(m, v, [&](const tet_tuple& t) { push_both(m, t, push); });
+    }
+    template <class Mesh>
+    double priority(op::collapse_edge, const Mesh& m, const tet_tuple& t) const {
+        const auto [a, b] = m.edge_vertices(t);
+        return squared_norm(m.position(a) - m.position(b)); // shortest first
+    }
+
+    /// The cheap refusals first, before the operation's link condition: b must be allowed
+    /// to vanish into a, no edge of the merged vertex may get longer than 4/3 of the
+    /// target (else the next split undoes the collapse), and the largest energy of the
+    /// tets of b's star may not rise.
+    template <class Mesh>
+    bool should_process(op::collapse_edge, const Mesh& m, const queue_entry<tet_tuple>& e) const {
+        const tet_tuple& t = e.tuple;
+        if (!m.is_valid(t)) return false;
+        const auto [a, b] = m.edge_vertices(t);
+        if (!too_short(m, a, b)) return false;
+        const auto kind = m.attribute(s.kind);
+        if (kind[b] & tet_vertex::feature) return false;
+        const std::uint8_t pb = s.box_planes(m.position(b));
+        if ((pb & s.box_planes(m.position(a))) != pb) return false;
+        if (kind[b] & tet_vertex::surface) {
+            if (!(kind[a] & tet_vertex::surface)) return false;
+            detail::tracked_faces around;
+            for (index_t g : m.vertex_tets(a))
+                if (tet_local::contains(m.tet_vertices(g), b))
+                    detail::gather_tracked(m, s, g, around);
+            if (std::none_of(around.begin(), around.end(), [&](const tri_indices& k) {
+                    return detail::has(k, a) && detail::has(k, b);
+                }))
+                return false; // ab runs through the volume, not along the surface
+        }
+        const auto p = m.positions();
+        const vec3 pa = p[a];
+        double old_max = 0, new_max = 0;
+        for (index_t g : m.vertex_tets(b)) {
+            const auto& tv = m.tet_vertices(g);
+            old_max = std::max(old_max, tet_amips(p[tv[0]], p[tv[1]], p[tv[2]], p[tv[3]]));
+        }
+        for (index_t g : m.vertex_tets(b)) {
+            const auto& tv = m.tet_vertices(g);
+            if (tet_local::contains(tv, a)) continue;
+            for (index_t x : tv)
+                if (x != b &&
+                    squared_norm(p[x] - pa) > 16.0 / 9.0 * detail::target_squared(m, s, a, x))
+                    return false;
+            const auto nt = idas::detail::replaced(tv, b, a);
+            new_max = std::max(new_max, tet_amips(p[nt[0]], p[nt[1]], p[nt[2]], p[nt[3]]));
+            if (!(new_max <= old_max)) return false;
+        }
+        return true;
+    }
+
+    template <class Mesh>
+    std::optional<cache> before(op::collapse_edge, const Mesh& m, const tet_tuple& t) const {
+        const auto [a, b] = m.edge_vertices(t);
+        if (!too_short(m, a, b)) return std::nullopt;
+        std::optional<cache> c(std::in_place, b, detail::tracked_faces{});
+        for (index_t g : m.vertex_tets(b)) detail::gather_tracked(m, s, g, c->tracked);
+        return c;
+    }
+    template <class Mesh>
+    bool after(op::collapse_edge, Mesh& m, const op_result<tet_tuple>& r, cache& c) const {
+        const index_t a = r.anchor.vid;
+        // Tets keep their slots and local order, so a face keeps its bit; a face through a
+        // is also tracked if it replaced a tracked face through b (or merged with one).
+        const auto bits = m.attribute(s.tracked);
+        detail::retrack(m, s, r, [&](index_t g, std::uint8_t lf, const tri_indices& k) {
+            if (bits[g] >> lf & 1u) return true;
+            if (!detail::has(k, a)) return false;
+            tri_indices via_b = k;
+            for (auto& x : via_b)
+                if (x == a) x = c.b;
+            return detail::holds(c.tracked, k) ||
+                   detail::holds(c.tracked, detail::sorted_triple(via_b[0], via_b[1], via_b[2]));
+        });
+        return true;
+    }
+    /// The merged vertex's edges changed length; the others did not.
+    template <class Mesh, class Push>
+    void renew(op::collapse_edge, const Mesh& m, const op_result<tet_tuple>& r, Push& push) const {
+        const index_t a = r.anchor.vid;
+        boost::container::small_vector<index_t, 32> seen;
+        for (index_t g : m.vertex_tets(a))
+            for (index_t x : m.tet_vertices(g))
+                if (x != a && std::find(seen.begin(), seen.end(), x) == seen.end()) {
+                    seen.push_back(x);
+                    push_both(m, m.tuple_at(g, a, x), push);
+                }
+    }
+};
+
+template <class Envelope>
+struct tet_swap_spec : tet_optimization_invariants<Envelope> {
+    using operations = op_list<op::edge_removal, op::face_swap_23>;
+    using tet_optimization_invariants<Envelope>::s;
+    static constexpr std::size_t max_ring = 5; // 3-2, 4-4 and 5-6 swaps, as fTetWild
+
+    struct cache {
+        double old_max;
+        detail::tracked_faces tracked;
+    };
+
+    /// Edge removal picks the triangulation of the ring whose worst tet is best.
+    template <class Mesh>
+    double tet_quality(const Mesh& m, const tet_indices& t) const {
+        return -detail::amips(m, t);
+    }
+
+    template <class Mesh, class Push>
+    void push_around(const Mesh& m, index_t g, Push& push) const {
+        for (std::uint8_t le = 0; le < 6; ++le) push(op::edge_removal{}, m.tuple_from_edge(g, le));
+        for (std::uint8_t lf = 0; lf < 4; ++lf)
+            if (!(m.attribute(s.tracked)[g] >> lf & 1u) &&
+                m.connectivity().opposite_tet(g, lf) != invalid_index)
+                push(op::face_swap_23{}, m.tuple_from_face(g, lf));
+    }
+    /// The tets above the bar whose smallest vertex is v.
+    template <class Mesh, class Push>
+    void initial_at(const Mesh& m, index_t v, Push& push) const {
+        for (index_t g : m.vertex_tets(v)) {
+            const auto& tv = m.tet_vertices(g);
+            if (*std::min_element(tv.begin(), tv.end()) == v && detail::amips(m, tv) > s.swap_above)
+                push_around(m, g, push);
+        }
+    }
+    template <class Op, class Mesh>
+    double priority(Op, const Mesh& m, const tet_tuple& t) const {
+        return -detail::amips(m, m.tet_vertices(t.tid)); // worst tets first
+    }
+
+    /// Edge removal searches its best triangulation before `before` runs: the cheap
+    /// refusals come first, here.
+    template <class Mesh>
+    bool should_process(op::edge_removal, const Mesh& m, const queue_entry<tet_tuple>& e) const {
+        return m.is_valid(e.tuple) && gather_ring(m, e.tuple).has_value();
+    }
+    template <class Mesh>
+    bool should_process(op::face_swap_23, const Mesh& m, const queue_entry<tet_tuple>& e) const {
+        return m.is_valid(e.tuple);
+    }
+    /// The ring's largest energy and tracked faces, if ab has at most max_ring tets, one
+    /// of them above the bar, and no tracked face (which would vanish).
+    template <class Mesh>
+    std::optional<cache> gather_ring(const Mesh& m, const tet_tuple& t) const {
+        const auto [a, b] = m.edge_vertices(t);
+        std::optional<cache> c(std::in_place, 0.0, detail::tracked_faces{});
+        std::size_t n = 0;
+        for (index_t g : m.vertex_tets(a)) {
+            const auto& tv = m.tet_vertices(g);
+            if (!tet_local::contains(tv, b)) continue;
+            if (++n > max_ring) return std::nullopt;
+            c->old_max = std::max(c->old_max, detail::amips(m, tv));
+            detail::gather_tracked(m, s, g, c->tracked);
+        }
+        if (!(c->old_max > s.swap_above)) return std::nullopt;
+        for (const auto& k : c->tracked)
+            if (detail::has(k, a) && detail::has(k, b)) return std::nullopt;
+        return c;
+    }
+    template <class Mesh>
+    std::optional<cache> before(op::edge_removal, const Mesh& m, const tet_tuple& t) const {
+        return gather_ring(m, t);
+    }
+    template <class Mesh>
+    std::optional<cache> before(op::face_swap_23, const Mesh& m, const tet_tuple& t) const {
+        if (m.attribute(s.tracked)[t.tid] >> t.local_face & 1u) return std::nullopt;
+        const index_t t2 = m.connectivity().opposite_tet(t.tid, t.local_face);
+        if (t2 == invalid_index) return std::nullopt;
+        std::optional<cache> c(
+            std::in_place,
+            std::max(detail::amips(m, m.tet_vertices(t.tid)), detail::amips(m, m.tet_vertices(t2))),
+            detail::tracked_faces{});
+        if (!(c->old_max > s.swap_above)) return std::nullopt;
+        // The new tets, as face_swap_23 makes them: (a b e d), (b c e d), (c a e d).
+        const auto out = m.face_vertices_outward(t);
+        const index_t d = m.opposite_vertex(t);
+        index_t e = invalid_index;
+        for (index_t x : m.tet_vertices(t2))
+            if (x != out[0] && x != out[1] && x != out[2]) e = x;
+        const index_t fa = out[0], fb = out[2], fc = out[1];
+        for (const tet_indices& nt :
+             {tet_indices{fa, fb, e, d}, tet_indices{fb, fc, e, d}, tet_indices{fc, fa, e, d}})
+            if (!(detail::amips(m, nt) < c->old_max)) return std::nullopt;
+        detail::gather_tracked(m, s, t.tid, c->tracked);
+        detail::gather_tracked(m, s, t2, c->tracked);
+        return c;
+    }
+    template <class Op, class Mesh>
+    bool after(Op, Mesh& m, const op_result<tet_tuple>& r, cache& c) const {
+        // Edge removal chose its best triangulation; keep it only if it is better.
+        for (const tet_tuple& x : r.cells)
+            if (!(detail::amips(m, m.tet_vertices(x.tid)) < c.old_max)) return false;
+        detail::retrack(m, s, r, [&](index_t, std::uint8_t, const tri_indices& k) {
+            return detail::holds(c.tracked, k);
+        });
+        return true;
+    }
+    template <class Op, class Mesh, class Push>
+    void renew(Op, const Mesh& m, const op_result<tet_tuple>& r, Push& push) const {
+        for (const tet_tuple& x : r.cells)
+            if (detail::amips(m, m.tet_vertices(x.tid)) > s.swap_above) push_around(m, x.tid, push);
+    }
+};
+
+template <class Envelope>
+struct tet_smooth_spec : tet_optimization_invariants<Envelope> {
+    using operations = op_list<op::smooth_vertex>;
+    using tet_optimization_invariants<Envelope>::s;
+    unsigned line_search_steps = 8;
+
+    template <class Mesh>
+    bool movable(const Mesh& m, index_t v) const {
+        if (m.attribute(s.kind)[v] & tet_vertex::feature) return false;
+        const std::uint8_t planes = s.box_planes(m.position(v));
+        // A vertex on two box planes (a box edge) or three (a corner) stays.
+        return std::popcount(planes) < 2;
+    }
+    template <class Mesh, class Push>
+    void initial_at(const Mesh& m, index_t v, Push& push) const {
+        if (!std::ranges::empty(m.vertex_tets(v)) && movable(m, v))
+            push(op::smooth_vertex{}, m.tuple_from_vertex(v));
+    }
+
+    /// The star as (v, q1, q2, q3) positively ordered.
+    using star = boost::container::small_vector<std::array<vec3, 3>, 64>;
+    template <class Mesh>
+    static void gather(const Mesh& m, index_t v, star& out) {
+        static constexpr std::uint8_t perm[4][3] = {{1, 2, 3}, {0, 3, 2}, {3, 0, 1}, {2, 1, 0}};
+        const auto pos = m.positions();
+        out.clear();
+        for (index_t g : m.vertex_tets(v)) {
+            const auto& tv = m.tet_vertices(g);
+            const std::uint8_t i = tet_local::index_of(tv, v);
+            out.push_back({pos[tv[perm[i][0]]], pos[tv[perm[i][1]]], pos[tv[perm[i][2]]]});
+        }
+    }
+    struct star_energy {
+        double sum = 0, max = 0;
+    };
+    static star_energy energy(const star& st, const vec3& p) noexcept {
+        star_energy e;
+        for (const auto& q : st) {
+            const double x = tet_amips(p, q[0], q[1], q[2]);
+            e.sum += x, e.max = std::max(e.max, x);
+        }
+        return e;
+    }
+
+    template <class Mesh>
+    std::optional<vec3> before(op::smooth_vertex, const Mesh& m, const tet_tuple& t) const {
+        const index_t v = t.vid;
+        if (!movable(m, v)) return std::nullopt;
+        star st;
+        gather(m, v, st);
+        const vec3 p = m.position(v);
+        // Newton direction of the star's summed energy.
+        vec3 grad{};
+        std::array<double, 9> H{};
+        star_energy now;
+        for (const auto& q : st) {
+            const auto d = tet_amips_derivatives(p, q[0], q[1], q[2]);
+            now.sum += d.energy, now.max = std::max(now.max, d.energy);
+            grad += d.gradient;
+            for (int i = 0; i < 9; ++i) H[i] += d.hessian[i];
+        }
+        if (!std::isfinite(now.sum)) return std::nullopt; // flat in doubles: leave it
+        // Box planes: that coordinate stays.
+        const std::uint8_t planes = s.box_planes(p);
+        for (int k = 0; k < 3; ++k)
+            if (planes >> (2 * k) & 3u) {
+                grad[k] = 0;
+                for (int j = 0; j < 3; ++j) H[3 * k + j] = H[3 * j + k] = 0;
+                H[4 * k] = 1;
+            }
+        vec3 dir = newton_direction(H, grad);
+        if (!(squared_norm(dir) > 0)) return std::nullopt;
+        const bool surface = m.attribute(s.kind)[v] & tet_vertex::surface;
+        for (unsigned k = 0; k < line_search_steps; ++k, dir *= 0.5) {
+            vec3 q = p + dir;
+            if (surface && s.input) q = s.input->closest_point(q).point;
+            for (int a = 0; a < 3; ++a)
+                if (planes >> (2 * a) & 3u) q[a] = p[a];
+            if (q == p) continue;
+            const star_energy e = energy(st, q);
+            if (e.sum < now.sum * (1 - 1e-10) && e.max <= now.max) return q;
+        }
+        return std::nullopt;
+    }
+    template <class Mesh>
+    bool after(op::smooth_vertex, Mesh& m, const op_result<tet_tuple>& r, vec3& q) const {
+        const index_t v = r.anchor.vid;
+        m.positions().set(v, q);
+        auto kind = m.attribute(s.kind);
+        if (kind[v] & tet_vertex::rational)
+            kind.set(v, std::uint8_t(kind[v] & ~tet_vertex::rational)); // exactly q now
+        return true;
+    }
+
+    /// -H^-1 g when H is positive definite (Cholesky), else the steepest descent step
+    /// scaled like a Newton step of H's size.
+    static vec3 newton_direction(const std::array<double, 9>& H, const vec3& g) noexcept {
+        const double l00 = H[0];
+        if (l00 > 0) {
+            const double L00 = std::sqrt(l00), L10 = H[3] / L00, L20 = H[6] / L00;
+            const double d1 = H[4] - L10 * L10;
+            if (d1 > 0) {
+                const double L11 = std::sqrt(d1), L21 = (H[7] - L20 * L10) / L11;
+                const double d2 = H[8] - L20 * L20 - L21 * L21;
+                if (d2 > 0) {
+                    const double L22 = std::sqrt(d2);
+                    // L y = -g, L^T x = y.
+                    const double y0 = -g[0] / L00, y1 = (-g[1] - L10 * y0) / L11,
+                                 y2 = (-g[2] - L20 * y0 - L21 * y1) / L22;
+                    const double x2 = y2 / L22, x1 = (y1 - L21 * x2) / L11,
+                                 x0 = (y0 - L10 * x1 - L20 * x2) / L00;
+                    const vec3 x{x0, x1, x2};
+                    if (std::isfinite(x0) && std::isfinite(x1) && std::isfinite(x2)) return x;
+                }
+            }
+        }
+        const double trace = H[0] + H[4] + H[8];
+        return trace > 0 ? g * (-3.0 / trace) : vec3{};
+    }
+};
+
+/// The optimization schedule: one round of the four phases (the driver repeats rounds
+/// until the stop criterion).
+template <class Envelope>
+using tet_optimization_round =
+    schedule::sequence<schedule::phase<tet_split_spec<Envelope>>,
+                       schedule::phase<tet_collapse_spec<Envelope>>,
+                       schedule::phase<tet_swap_spec<Envelope>>,
+                       schedule::phase<tet_smooth_spec<Envelope>, queue::fifo>>;
+
+/// The whole algorithm on a tet mesh whose tracked faces are marked in `tracked` and whose
+/// rational vertices (exact positions in `exact`, approximated in the mesh) are listed.
+template <triangle_envelope Envelope, class Mesh = tet_mesh<>, class Lock = lock::vertex_try_lock,
+          class Queue = queue::binary_heap, class Partition = partition::morton>
+struct tet_optimization {
+    using driver = schedule::driver<tet_optimization_round<Envelope>, Mesh, Lock, Queue, Partition>;
+
+    /// `observer(round, max_energy)` after every round.
+    template <class Observer>
+    static tet_optimization_report run(Mesh& m, tet_attribute<std::uint8_t> tracked,
+                                       const std::unordered_map<index_t, rational_point>& exact,
+                                       const Envelope& envelope, const triangle_aabb_tree& input,
+                                       const tet_optimization_options& o, const exec_options& exec,
+                                       Observer&& observer) {
+        if (!(o.target_length > 0) || !std::isfinite(o.target_length))
+            throw input_error("tet optimization: the target edge length must be positive");
+        const auto start = std::chrono::steady_clock::now();
+        tet_optimization_state s;
+        s.L = o.target_length, s.swap_above = o.swap_above;
+        s.tracked = tracked, s.exact = &exact, s.input = &input;
+        const temporary_attribute kind(
+            m, m.template add_vertex_attribute<std::uint8_t>("tet_kind", 0));
+        const temporary_attribute scale(m,
+                                        m.template add_vertex_attribute<double>("tet_scale", 1.0));
+        s.kind = kind.handle, s.scale = scale.handle;
+        mark_kinds(m, s, exact);
+
+        tet_split_spec<Envelope> split{{s, envelope}};
+        tet_collapse_spec<Envelope> collapse{{s, envelope}};
+        tet_swap_spec<Envelope> swap{{s, envelope}};
+        tet_smooth_spec<Envelope> smooth{{s, envelope}};
+
+        tet_optimization_report rep;
+        rep.max_energy_before = rep.max_energy = max_energy(m, exec.threads);
+        if (rep.max_energy <= o.stop_energy) {
+            rep.stopped = tet_optimization_stop::already_good;
+        } else {
+            for (unsigned it = 0; it < o.max_iterations; ++it) {
+                const auto r =
+                    driver::run(m, exec, 1, schedule::no_observer{}, split, collapse, swap, smooth);
+                for (std::size_t k = 0; k < 4; ++k) rep.phases[k] += r.phases[k];
+                rep.splits += r.phases[0].succeeded, rep.collapses += r.phases[1].succeeded;
+                rep.swaps += r.phases[2].succeeded, rep.smooths += r.phases[3].succeeded;
+                rep.rounded += round_rational(m, s);
+                const double previous = rep.max_energy;
+                rep.max_energy = max_energy(m, exec.threads);
+                rep.max_energy_history.push_back(rep.max_energy);
+                rep.iterations = it + 1;
+                observer(it, rep.max_energy);
+                if (rep.max_energy <= o.stop_energy) {
+                    rep.stopped = tet_optimization_stop::energy_reached;
+                    break;
+                }
+                if (rep.max_energy > 0.99 * previous)
+                    rep.sizing_refinements += refine_sizing(m, s, o);
+            }
+        }
+        for (index_t v = 0; v < m.vertex_slots(); ++v)
+            rep.rational_left += (m.attribute(s.kind)[v] & tet_vertex::rational) ? 1 : 0;
+        rep.seconds =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        return rep;
+    }
+
+    /// The largest AMIPS over the live tets (+infinity if one is flat in doubles).
+    static double max_energy(const Mesh& m, unsigned threads) {
+        const unsigned T = std::max(1u, threads);
+        std::vector<double> block(T, 0.0);
+        const std::size_t slots = m.tet_slots();
+        idas::detail::run_workers(T, T, [&](unsigned w) {
+            double mx = 0;
+            for (std::size_t t = slots * w / T; t < slots * (w + 1) / T; ++t)
+                if (m.tet_alive(index_t(t)))
+                    mx = std::max(mx, detail::amips(m, m.tet_vertices(index_t(t))));
+            block[w] = mx;
+        });
+        return *std::max_element(block.begin(), block.end());
+    }
+
+private:
+    /// Surface and feature vertices from the tracked faces; rational ones from `exact`.
+    static void mark_kinds(Mesh& m, tet_optimization_state& s,
+                           const std::unordered_map<index_t, rational_point>& exact) {
+        auto kind = m.attribute(s.kind);
+        const auto tracked = m.attribute(s.tracked);
+        std::vector<std::pair<index_t, index_t>> edges; // of tracked faces, once per face
+        vec3 lo = m.position(0), hi = lo;
+        for (index_t v = 0; v < m.vertex_slots(); ++v)
+            for (int k = 0; k < 3; ++k)
+                lo[k] = std::min(lo[k], m.position(v)[k]),
+                hi[k] = std::max(hi[k], m.position(v)[k]);
+        s.box_lo = lo, s.box_hi = hi;
+        for (index_t g = 0; g < m.tet_slots(); ++g) {
+            if (!m.tet_alive(g) || !tracked[g]) continue;
+            const auto& tv = m.tet_vertices(g);
+            for (std::uint8_t lf = 0; lf < 4; ++lf) {
+                if (!(tracked[g] >> lf & 1u)) continue;
+                const index_t other = m.connectivity().opposite_tet(g, lf);
+                const bool count_here = other == invalid_index || other > g;
+                const auto f = tet_local::face_vertices[lf];
+                for (int i = 0; i < 3; ++i) {
+                    kind.raw(tv[f[i]]) |= tet_vertex::surface;
+                    if (count_here) edges.push_back(std::minmax(tv[f[i]], tv[f[(i + 1) % 3]]));
+                }
+            }
+        }
+        std::sort(edges.begin(), edges.end());
+        for (std::size_t i = 0; i < edges.size();) {
+            std::size_t j = i + 1;
+            while (j < edges.size() && edges[j] == edges[i]) ++j;
+            if (j - i != 2)
+                kind.raw(edges[i].first) |= tet_vertex::feature,
+                    kind.raw(edges[i].second) |= tet_vertex::feature;
+            i = j;
+        }
+        for (const auto& [v, q] : exact)
+            if (v < m.vertex_slots()) kind.raw(v) |= tet_vertex::rational;
+    }
+
+    /// Rational vertices whose nearest doubles keep every tet of their star positive
+    /// become double vertices. Returns how many.
+    static std::size_t round_rational(Mesh& m, tet_optimization_state& s) {
+        auto kind = m.attribute(s.kind);
+        const auto p = m.positions();
+        std::size_t rounded = 0;
+        for (const auto& [v, q] : *s.exact) {
+            if (v >= m.vertex_slots() || !(kind[v] & tet_vertex::rational)) continue;
+            bool ok = true;
+            for (index_t g : m.vertex_tets(v)) {
+                const auto& tv = m.tet_vertices(g);
+                std::array<rational_point, 4> x;
+                bool other_rational = false;
+                for (int i = 0; i < 4; ++i)
+                    other_rational =
+                        other_rational || (tv[i] != v && (kind[tv[i]] & tet_vertex::rational));
+                if (!other_rational) {
+                    ok = orient3d(p[tv[0]], p[tv[1]], p[tv[2]], p[tv[3]]) > 0;
+                } else {
+                    for (int i = 0; i < 4; ++i)
+                        x[i] = tv[i] != v && (kind[tv[i]] & tet_vertex::rational)
+                                   ? s.exact->at(tv[i])
+                                   : to_rational(p[tv[i]]);
+                    ok = orient3d(x[0], x[1], x[2], x[3]) > 0;
+                }
+                if (!ok) break;
+            }
+            if (ok) kind.raw(v) &= std::uint8_t(~tet_vertex::rational), ++rounded;
+        }
+        return rounded;
+    }
+
+    /// fTetWild's adaptive sizing: where the worst energy stalls, the vertices of the tets
+    /// above the stop energy get half the target length (down to min_scale).
+    static std::uint64_t refine_sizing(Mesh& m, tet_optimization_state& s,
+                                       const tet_optimization_options& o) {
+        auto sc = m.attribute(s.scale);
+        std::vector<index_t> shrink;
+        for (index_t g = 0; g < m.tet_slots(); ++g) {
+            if (!m.tet_alive(g)) continue;
+            const auto& tv = m.tet_vertices(g);
+            if (detail::amips(m, tv) > o.stop_energy)
+                for (index_t v : tv) shrink.push_back(v);
+        }
+        std::sort(shrink.begin(), shrink.end());
+        shrink.erase(std::unique(shrink.begin(), shrink.end()), shrink.end());
+        std::uint64_t n = 0;
+        for (index_t v : shrink)
+            if (sc[v] > o.min_scale) sc.raw(v) = std::max(o.min_scale, 0.5 * sc[v]), ++n;
+        return n;
+    }
+};
+
+} // namespace idas::algorithms
