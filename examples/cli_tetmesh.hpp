@@ -59,6 +59,40 @@ CLI::App* add_tetmesh_command(CLI::App& app, tetmesh_arguments& a,
 }
 
 #if IDAS_CLI_HAVE_CGAL
+/// The insertion's guarantee, checked: a failure is a bug in idas, not in the input
+/// (exit 1).
+void check_insertion_guarantee(const idas::tetmesh::report& r) {
+    if (r.covered_triangles != r.triangles || r.inverted_tets != 0)
+        throw std::runtime_error(
+            "internal error: tetmesh covered " + std::to_string(r.covered_triangles) + " of " +
+            std::to_string(r.triangles) + " triangles exactly and left " +
+            std::to_string(r.inverted_tets) + " inverted tets; nothing was written");
+}
+
+/// What both stages report: the input, the insertion, the lengths and part 1's seconds.
+json insertion_json(const tetmesh_arguments& a, const idas::io::surface& s,
+                    const idas::tetmesh::report& r) {
+    json j;
+    j["input"] = {{"file", a.in},
+                  {"vertices", r.input_vertices},
+                  {"faces", r.input_faces},
+                  {"welded_vertices", r.welded_vertices},
+                  {"degenerate_faces_dropped", r.degenerate_faces + s.dropped_faces},
+                  {"repeated_faces_dropped", r.repeated_faces}};
+    j["triangles"] = r.triangles;
+    j["inserted_triangles"] = r.covered_triangles;
+    j["diagonal"] = r.diagonal;
+    j["epsilon"] = r.epsilon;
+    j["edge_length"] = r.edge_length;
+    j["threads"] = a.threads;
+    j["seconds"] = {{"cleaning", r.seconds_cleaning},
+                    {"delaunay", r.seconds_delaunay},
+                    {"insertion", r.seconds_insertion},
+                    {"rounding", r.seconds_rounding},
+                    {"checks", r.seconds_check}};
+    return j;
+}
+
 /// The full run: parts 1 and 2.
 int run_tetmesh_optimized(const tetmesh_arguments& a, const idas::io::surface& s,
                           const idas::tetmesh::options& o, const stopwatch& total) {
@@ -78,11 +112,7 @@ int run_tetmesh_optimized(const tetmesh_arguments& a, const idas::io::surface& s
     const auto& r = res.insertion;
     const auto& qr = res.quality;
     const auto& opt = qr.optimization;
-    if (r.covered_triangles != r.triangles || r.inverted_tets != 0)
-        throw std::runtime_error(
-            "internal error: tetmesh covered " + std::to_string(r.covered_triangles) + " of " +
-            std::to_string(r.triangles) + " triangles exactly and left " +
-            std::to_string(r.inverted_tets) + " inverted tets; nothing was written");
+    check_insertion_guarantee(r);
     idas::io::volume v;
     v.vertices = res.vertices;
     for (std::size_t t = 0; t < res.tets.size(); ++t)
@@ -107,15 +137,7 @@ int run_tetmesh_optimized(const tetmesh_arguments& a, const idas::io::surface& s
                            ? "iteration_limit"
                            : "energy_reached";
     if (a.as_json) {
-        json j;
-        j["input"] = {{"file", a.in},
-                      {"vertices", r.input_vertices},
-                      {"faces", r.input_faces},
-                      {"welded_vertices", r.welded_vertices},
-                      {"degenerate_faces_dropped", r.degenerate_faces + s.dropped_faces},
-                      {"repeated_faces_dropped", r.repeated_faces}};
-        j["triangles"] = r.triangles;
-        j["inserted_triangles"] = r.covered_triangles;
+        json j = insertion_json(a, s, r);
         j["tets"] = v.tets.size();
         j["vertices"] = v.vertices.size();
         j["inside_tets"] = qr.inside_tets;
@@ -141,20 +163,11 @@ int run_tetmesh_optimized(const tetmesh_arguments& a, const idas::io::surface& s
                              {"smooths", opt.smooths},
                              {"sizing_refinements", opt.sizing_refinements},
                              {"rational_vertices_left", opt.rational_left}};
-        j["diagonal"] = r.diagonal;
-        j["epsilon"] = r.epsilon;
-        j["edge_length"] = r.edge_length;
         j["kept"] = a.keep_outside ? "all tets; MSH physical tag 1 = inside, 2 = outside"
                                    : "inside tets (MSH physical tag 1)";
-        j["threads"] = a.threads;
-        j["seconds"] = {{"cleaning", r.seconds_cleaning},
-                        {"delaunay", r.seconds_delaunay},
-                        {"insertion", r.seconds_insertion},
-                        {"rounding", r.seconds_rounding},
-                        {"checks", r.seconds_check},
-                        {"optimization", qr.seconds_optimization},
-                        {"winding_number_and_output", qr.seconds_output},
-                        {"total", total.seconds()}};
+        j["seconds"]["optimization"] = qr.seconds_optimization;
+        j["seconds"]["winding_number_and_output"] = qr.seconds_output;
+        j["seconds"]["total"] = total.seconds();
         std::printf("%s\n", j.dump(2).c_str());
     } else {
         std::printf("%s: %zu triangles, all %zu inserted exactly\n", a.in.c_str(), r.triangles,
@@ -206,12 +219,7 @@ int run_tetmesh(const tetmesh_arguments& a) {
     if (a.stage == "optimize") return run_tetmesh_optimized(a, s, o, total);
     idas::tetmesh::result res = idas::tetmesh::mesh_insertion(s.vertices, s.faces, o, a.in);
     const auto& r = res.stats;
-    // The guarantee, checked: a failure is a bug in idas, not in the input (exit 1).
-    if (r.covered_triangles != r.triangles || r.inverted_tets != 0)
-        throw std::runtime_error(
-            "internal error: tetmesh covered " + std::to_string(r.covered_triangles) + " of " +
-            std::to_string(r.triangles) + " triangles exactly and left " +
-            std::to_string(r.inverted_tets) + " inverted tets; nothing was written");
+    check_insertion_guarantee(r);
     if (r.inside_tets == 0)
         throw idas::input_error(a.in + ": the input encloses no volume (the winding number is "
                                        "at most 1/2 at every tet: a flat or open sheet?); nothing "
@@ -233,15 +241,7 @@ int run_tetmesh(const tetmesh_arguments& a) {
                         a.ascii ? idas::io::encoding::ascii : idas::io::encoding::binary);
 
     if (a.as_json) {
-        json j;
-        j["input"] = {{"file", a.in},
-                      {"vertices", r.input_vertices},
-                      {"faces", r.input_faces},
-                      {"welded_vertices", r.welded_vertices},
-                      {"degenerate_faces_dropped", r.degenerate_faces + s.dropped_faces},
-                      {"repeated_faces_dropped", r.repeated_faces}};
-        j["triangles"] = r.triangles;
-        j["inserted_triangles"] = r.covered_triangles;
+        json j = insertion_json(a, s, r);
         j["background_tets"] = r.background_tets;
         j["cut_tets"] = r.cut_tets;
         j["tets"] = r.tets;
@@ -252,18 +252,9 @@ int run_tetmesh(const tetmesh_arguments& a) {
         j["rational_vertices_left"] = r.rational_vertices_left;
         j["inverted_tets"] = r.inverted_tets;
         j["flat_or_inverted_as_written"] = flat_in_file;
-        j["diagonal"] = r.diagonal;
-        j["epsilon"] = r.epsilon;
-        j["edge_length"] = r.edge_length;
         j["kept"] = "all tets; MSH physical tag 1 = inside, 2 = outside";
-        j["threads"] = a.threads;
-        j["seconds"] = {{"cleaning", r.seconds_cleaning},
-                        {"delaunay", r.seconds_delaunay},
-                        {"insertion", r.seconds_insertion},
-                        {"rounding", r.seconds_rounding},
-                        {"winding_number", r.seconds_winding},
-                        {"checks", r.seconds_check},
-                        {"total", total.seconds()}};
+        j["seconds"]["winding_number"] = r.seconds_winding;
+        j["seconds"]["total"] = total.seconds();
         std::printf("%s\n", j.dump(2).c_str());
     } else {
         std::printf("%s: %zu triangles (%zu dropped as degenerate, %zu repeated, %zu vertices "

@@ -211,6 +211,21 @@ double target_squared(const Mesh& m, const tet_optimization_state& s, index_t a,
     return l * l;
 }
 
+/// Exact orient3d of tet tv on the exact positions: rational ones where a vertex's kind
+/// says so, except `at_double`, taken at its double position (a rounding candidate).
+template <class Mesh>
+int exact_orient3d(const Mesh& m, const tet_optimization_state& s, const tet_indices& tv,
+                   index_t at_double = invalid_index) {
+    const auto p = m.positions();
+    const auto kind = m.attribute(s.kind);
+    auto rational = [&](index_t v) { return v != at_double && (kind[v] & tet_vertex::rational); };
+    if (std::none_of(tv.begin(), tv.end(), rational))
+        return orient3d(p[tv[0]], p[tv[1]], p[tv[2]], p[tv[3]]);
+    std::array<rational_point, 4> q;
+    for (int i = 0; i < 4; ++i) q[i] = rational(tv[i]) ? s.exact->at(tv[i]) : to_rational(p[tv[i]]);
+    return orient3d(q[0], q[1], q[2], q[3]);
+}
+
 } // namespace detail
 
 /// Invariant: every new tet is positively oriented, by an exact orient3d on the exact
@@ -221,22 +236,8 @@ struct exact_orientation {
 
     template <class Op, class Mesh, class Result>
     bool after(Op, const Mesh& m, const Result& r, state&) const {
-        const auto p = m.positions();
-        const auto kind = m.attribute(s->kind);
-        for (const auto& c : r.cells) {
-            const auto& tv = m.tet_vertices(c.tid);
-            bool rational = false;
-            for (index_t v : tv) rational = rational || (kind[v] & tet_vertex::rational);
-            if (!rational) {
-                if (orient3d(p[tv[0]], p[tv[1]], p[tv[2]], p[tv[3]]) <= 0) return false;
-                continue;
-            }
-            std::array<rational_point, 4> q;
-            for (int i = 0; i < 4; ++i)
-                q[i] = kind[tv[i]] & tet_vertex::rational ? s->exact->at(tv[i])
-                                                          : to_rational(p[tv[i]]);
-            if (orient3d(q[0], q[1], q[2], q[3]) <= 0) return false;
-        }
+        for (const auto& c : r.cells)
+            if (detail::exact_orient3d(m, *s, m.tet_vertices(c.tid)) <= 0) return false;
         return true;
     }
 };
@@ -853,30 +854,14 @@ private:
     /// become double vertices. Returns how many.
     static std::size_t round_rational(Mesh& m, tet_optimization_state& s) {
         auto kind = m.attribute(s.kind);
-        const auto p = m.positions();
         std::size_t rounded = 0;
         for (const auto& [v, q] : *s.exact) {
             if (v >= m.vertex_slots() || !(kind[v] & tet_vertex::rational)) continue;
-            bool ok = true;
-            for (index_t g : m.vertex_tets(v)) {
-                const auto& tv = m.tet_vertices(g);
-                std::array<rational_point, 4> x;
-                bool other_rational = false;
-                for (int i = 0; i < 4; ++i)
-                    other_rational =
-                        other_rational || (tv[i] != v && (kind[tv[i]] & tet_vertex::rational));
-                if (!other_rational) {
-                    ok = orient3d(p[tv[0]], p[tv[1]], p[tv[2]], p[tv[3]]) > 0;
-                } else {
-                    for (int i = 0; i < 4; ++i)
-                        x[i] = tv[i] != v && (kind[tv[i]] & tet_vertex::rational)
-                                   ? s.exact->at(tv[i])
-                                   : to_rational(p[tv[i]]);
-                    ok = orient3d(x[0], x[1], x[2], x[3]) > 0;
-                }
-                if (!ok) break;
-            }
-            if (ok) kind.raw(v) &= std::uint8_t(~tet_vertex::rational), ++rounded;
+            const auto star = m.vertex_tets(v);
+            if (std::all_of(star.begin(), star.end(), [&](index_t g) {
+                    return detail::exact_orient3d(m, s, m.tet_vertices(g), v) > 0;
+                }))
+                kind.raw(v) &= std::uint8_t(~tet_vertex::rational), ++rounded;
         }
         return rounded;
     }
