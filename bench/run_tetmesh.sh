@@ -10,8 +10,8 @@ IDAS=${1:-build/release/examples/idas}
 DATA=${DATA:-data}
 TMP=$(mktemp -d)
 trap 'rm -rf "$TMP"' EXIT
-printf '%-16s %-8s %3s %8s %8s %8s %8s %8s %7s %7s %6s %9s %s\n' input tool thr tets verts \
-    amips_mn amips_mx mindih rounds stop closed optimize total
+printf '%-16s %-8s %3s %8s %8s %8s %8s %8s %7s %7s %6s %9s %9s %s\n' input tool thr tets verts \
+    amips_mn amips_mx mindih rounds stop closed triangles optimize total
 for f in ${INPUTS:-sphere.obj hour_glass.off x.stl blub.obj 100071_sf.obj 37989_sf.obj bunny.obj}; do
     for t in 1 2; do
         if ! timeout "${LIMIT:-900}" "$IDAS" tetmesh "$DATA/$f" "$TMP/out.msh" --threads "$t" \
@@ -22,10 +22,11 @@ for f in ${INPUTS:-sphere.obj hour_glass.off x.stl blub.obj 100071_sf.obj 37989_
         python3 - "$TMP/j.json" "$f" "$t" <<'PY'
 import json, sys
 d = json.load(open(sys.argv[1])); s = d['seconds']; o = d['optimization']
-print('%-16s %-8s %3s %8d %8d %8.2f %8.3g %8.2f %7d %7s %6s %9.2f %.2f' % (sys.argv[2], 'idas', sys.argv[3],
+print('%-16s %-8s %3s %8d %8d %8.2f %8.3g %8.2f %7d %7s %6s %9s %9.2f %.2f' % (sys.argv[2], 'idas', sys.argv[3],
       d['tets'], d['vertices'], d['amips']['mean'], d['amips']['max'], d['min_dihedral_deg'],
       o['iterations'], 'energy' if o['stopped'] == 'energy_reached' else 'limit',
-      'yes' if d['boundary']['closed_2_manifold'] else 'no', s['optimization'], s['total']))
+      'yes' if d['boundary']['closed_2_manifold'] else 'no',
+      '%d>%d' % (d['triangles'], d['simplified_triangles']), s['optimization'], s['total']))
 PY
     done
     if [ -n "${FTETWILD:-}" ]; then

@@ -3,7 +3,7 @@
 // its anonymous namespace, after the helpers it uses.
 //
 //   idas tetmesh IN OUT.msh [--epsilon E] [--edge-length L] [--absolute]
-//                [--stop-energy 10] [--max-iterations 80] [--keep-outside]
+//                [--stop-energy 10] [--max-iterations 80] [--keep-outside] [--no-simplify]
 //                [--stage insertion|optimize] [--threads T] [--json] [--ascii]
 //
 // OUT is MSH 2.2: physical tag 1 inside (winding number above 1/2 at its centroid), 2
@@ -16,6 +16,7 @@ struct tetmesh_arguments {
     double epsilon = 1e-3, edge_length = 1.0 / 20.0, stop_energy = 10;
     unsigned max_iterations = 80;
     bool absolute = false, as_json = false, ascii = false, keep_outside = false;
+    bool no_simplify = false;
     unsigned threads = 1;
 };
 
@@ -46,6 +47,9 @@ CLI::App* add_tetmesh_command(CLI::App& app, tetmesh_arguments& a,
         ->capture_default_str();
     c->add_flag("--keep-outside", a.keep_outside,
                 "write every tet (tag 1 inside, 2 outside), not only the inside");
+    c->add_flag("--no-simplify", a.no_simplify,
+                "insert every input triangle as it is (by default the full run first collapses "
+                "the input's short edges inside an envelope of 0.8 epsilon, as fTetWild)");
     c->add_option("--stage", a.stage,
                   "last stage to run (insertion: part 1, every tet written unoptimized)")
         ->check(CLI::IsMember({"insertion", "optimize"}))
@@ -62,10 +66,10 @@ CLI::App* add_tetmesh_command(CLI::App& app, tetmesh_arguments& a,
 /// The insertion's guarantee, checked: a failure is a bug in idas, not in the input
 /// (exit 1).
 void check_insertion_guarantee(const idas::tetmesh::report& r) {
-    if (r.covered_triangles != r.triangles || r.inverted_tets != 0)
+    if (r.covered_triangles != r.simplified_triangles || r.inverted_tets != 0)
         throw std::runtime_error(
             "internal error: tetmesh covered " + std::to_string(r.covered_triangles) + " of " +
-            std::to_string(r.triangles) + " triangles exactly and left " +
+            std::to_string(r.simplified_triangles) + " triangles exactly and left " +
             std::to_string(r.inverted_tets) + " inverted tets; nothing was written");
 }
 
@@ -80,16 +84,15 @@ json insertion_json(const tetmesh_arguments& a, const idas::io::surface& s,
                   {"degenerate_faces_dropped", r.degenerate_faces + s.dropped_faces},
                   {"repeated_faces_dropped", r.repeated_faces}};
     j["triangles"] = r.triangles;
+    j["simplified_triangles"] = r.simplified_triangles;
     j["inserted_triangles"] = r.covered_triangles;
     j["diagonal"] = r.diagonal;
     j["epsilon"] = r.epsilon;
     j["edge_length"] = r.edge_length;
     j["threads"] = a.threads;
-    j["seconds"] = {{"cleaning", r.seconds_cleaning},
-                    {"delaunay", r.seconds_delaunay},
-                    {"insertion", r.seconds_insertion},
-                    {"rounding", r.seconds_rounding},
-                    {"checks", r.seconds_check}};
+    j["seconds"] = {{"cleaning", r.seconds_cleaning}, {"simplification", r.seconds_simplification},
+                    {"delaunay", r.seconds_delaunay}, {"insertion", r.seconds_insertion},
+                    {"rounding", r.seconds_rounding}, {"checks", r.seconds_check}};
     return j;
 }
 
@@ -170,8 +173,8 @@ int run_tetmesh_optimized(const tetmesh_arguments& a, const idas::io::surface& s
         j["seconds"]["total"] = total.seconds();
         std::printf("%s\n", j.dump(2).c_str());
     } else {
-        std::printf("%s: %zu triangles, all %zu inserted exactly\n", a.in.c_str(), r.triangles,
-                    r.covered_triangles);
+        std::printf("%s: %zu triangles, simplified to %zu, all inserted exactly\n", a.in.c_str(),
+                    r.triangles, r.covered_triangles);
         std::printf("optimization: %u rounds (%s), max AMIPS %.3g -> %.3g; %llu splits, %llu "
                     "collapses, %llu swaps, %llu smooths\n",
                     opt.iterations, stop, opt.max_energy_before, opt.max_energy,
@@ -184,10 +187,10 @@ int run_tetmesh_optimized(const tetmesh_arguments& a, const idas::io::surface& s
                     qr.non_manifold_edges == 0 && qr.non_manifold_vertices == 0
                         ? "closed 2-manifold"
                         : "NOT a closed 2-manifold");
-        std::printf("seconds: delaunay %.3f, insertion %.3f, optimization %.3f, output %.3f, "
-                    "total %.3f\n",
-                    r.seconds_delaunay, r.seconds_insertion, qr.seconds_optimization,
-                    qr.seconds_output, total.seconds());
+        std::printf("seconds: simplification %.3f, delaunay %.3f, insertion %.3f, optimization "
+                    "%.3f, output %.3f, total %.3f\n",
+                    r.seconds_simplification, r.seconds_delaunay, r.seconds_insertion,
+                    qr.seconds_optimization, qr.seconds_output, total.seconds());
         std::printf("wrote %s\n", a.out.c_str());
     }
     return 0;
@@ -216,6 +219,7 @@ int run_tetmesh(const tetmesh_arguments& a) {
     const idas::io::surface s = load(a.in);
     idas::tetmesh::options o;
     o.epsilon = a.epsilon, o.edge_length = a.edge_length, o.absolute = a.absolute;
+    o.simplify = !a.no_simplify;
     if (a.stage == "optimize") return run_tetmesh_optimized(a, s, o, total);
     idas::tetmesh::result res = idas::tetmesh::mesh_insertion(s.vertices, s.faces, o, a.in);
     const auto& r = res.stats;

@@ -4,7 +4,8 @@
 //   split     edges longer than 4/3 of the local target length, at their midpoints,
 //             longest first
 //   collapse  edges shorter than 4/5 of it, shortest first, into one end, unless the
-//             largest AMIPS energy of the changed tets would rise
+//             largest AMIPS energy of the changed tets would rise (a surface vertex may go
+//             into any vertex: the envelope decides, as in fTetWild)
 //   swap      edge removal (3-2, 4-4 and n-(2n-4) swaps, the best triangulation of the
 //             ring) and 2-3 face swaps around the tets whose energy is above a bar, when
 //             they lower the largest energy of the tets they replace, worst tets first
@@ -16,16 +17,18 @@
 //      vertex is still rational); every tracked face inside the input's envelope
 //   A  per tet: which of its faces are tracked (cover the input); per vertex: its kind
 //      (surface, feature, rational) and the scale of the local target length
-//   S  as above; after each round, rational vertices are rounded where every tet stays
-//      positive, and where the largest energy stalled the target length is halved
-//      around the tets above the stop energy (fTetWild's adaptive sizing); stop when the
-//      largest energy is at most the stop energy, or after the iteration limit
+//   S  a collapse and a smoothing pass first (the insertion leaves many short edges),
+//      then rounds of the four; after each round, rational vertices are rounded where
+//      every tet stays positive, and where the energy stalled the target length shrinks
+//      around the bad tets and grows back elsewhere (fTetWild's adaptive sizing); stop
+//      when the largest energy is at most the stop energy, or after the iteration limit;
+//      last, one collapse pass at the full target length
 //
 // What must stay: the tracked surface (a tracked face is never swapped away, a surface
-// vertex moves or vanishes only along the surface and within the envelope), its border
-// and intersection curves (feature vertices never move or vanish), and the bounding box
-// (a vertex on a box plane stays on it: splits keep the coordinate, collapses need the
-// survivor on every plane of the removed vertex, smoothing keeps it).
+// vertex moves or vanishes only within the envelope), its border and intersection curves
+// (feature vertices never move or vanish), and the bounding box (a vertex on a box plane
+// stays on it: splits keep the coordinate, collapses need the survivor on every plane of
+// the removed vertex, smoothing keeps it).
 #pragma once
 
 #include <idas/core/aabb_tree.hpp>
@@ -185,6 +188,22 @@ void for_each_tet_edge_from(const Mesh& m, index_t v, Fn&& fn) {
                 seen.push_back(w);
                 fn(m.tuple_at(g, v, w));
             }
+}
+
+/// Every edge of the tets around v, each once.
+template <class Mesh, class Fn>
+void for_each_star_edge(const Mesh& m, index_t v, Fn&& fn) {
+    boost::container::small_vector<std::pair<index_t, index_t>, 128> seen;
+    for (index_t g : m.vertex_tets(v)) {
+        const auto& tv = m.tet_vertices(g);
+        for (std::uint8_t le = 0; le < 6; ++le) {
+            const auto ev = tet_local::edge_vertices[le];
+            const std::pair<index_t, index_t> key = std::minmax(tv[ev[0]], tv[ev[1]]);
+            if (std::find(seen.begin(), seen.end(), key) != seen.end()) continue;
+            seen.push_back(key);
+            fn(m.tuple_from_edge(g, le));
+        }
+    }
 }
 
 /// The edges of an operation's new tets, each once.
@@ -377,6 +396,7 @@ struct tet_collapse_spec : tet_optimization_invariants<Envelope> {
 
     struct cache {
         index_t b;
+        std::uint8_t kind_b;
         detail::tracked_faces tracked;
     };
 
@@ -404,9 +424,10 @@ struct tet_collapse_spec : tet_optimization_invariants<Envelope> {
     }
 
     /// The cheap refusals first, before the operation's link condition: b must be allowed
-    /// to vanish into a, no edge of the merged vertex may get longer than 4/3 of the
-    /// target (else the next split undoes the collapse), and the largest energy of the
-    /// tets of b's star may not rise.
+    /// to vanish into a (not a feature vertex, and a on every box plane b is on), and the
+    /// largest energy of the tets of b's star may not rise. A surface vertex may go into
+    /// any vertex, as in fTetWild: the envelope invariant decides whether its faces may
+    /// follow.
     template <class Mesh>
     bool should_process(op::collapse_edge, const Mesh& m, const queue_entry<tet_tuple>& e) const {
         const tet_tuple& t = e.tuple;
@@ -417,19 +438,12 @@ struct tet_collapse_spec : tet_optimization_invariants<Envelope> {
         if (kind[b] & tet_vertex::feature) return false;
         const std::uint8_t pb = s.box_planes(m.position(b));
         if ((pb & s.box_planes(m.position(a))) != pb) return false;
-        if (kind[b] & tet_vertex::surface) {
-            if (!(kind[a] & tet_vertex::surface)) return false;
-            detail::tracked_faces around;
-            for (index_t g : m.vertex_tets(a))
-                if (tet_local::contains(m.tet_vertices(g), b))
-                    detail::gather_tracked(m, s, g, around);
-            if (std::none_of(around.begin(), around.end(), [&](const tri_indices& k) {
-                    return detail::has(k, a) && detail::has(k, b);
-                }))
-                return false; // ab runs through the volume, not along the surface
-        }
         const auto p = m.positions();
-        const vec3 pa = p[a];
+        // A surface vertex going into a vertex off the surface: the survivor must at least
+        // be inside the envelope itself (one point test before the faces' tests).
+        if ((kind[b] & tet_vertex::surface) && !(kind[a] & tet_vertex::surface) &&
+            !this->envelope.contains(p[a], p[a], p[a]))
+            return false;
         double old_max = 0, new_max = 0;
         for (index_t g : m.vertex_tets(b)) {
             const auto& tv = m.tet_vertices(g);
@@ -438,10 +452,6 @@ struct tet_collapse_spec : tet_optimization_invariants<Envelope> {
         for (index_t g : m.vertex_tets(b)) {
             const auto& tv = m.tet_vertices(g);
             if (tet_local::contains(tv, a)) continue;
-            for (index_t x : tv)
-                if (x != b &&
-                    squared_norm(p[x] - pa) > 16.0 / 9.0 * detail::target_squared(m, s, a, x))
-                    return false;
             const auto nt = idas::detail::replaced(tv, b, a);
             new_max = std::max(new_max, tet_amips(p[nt[0]], p[nt[1]], p[nt[2]], p[nt[3]]));
             if (!(new_max <= old_max)) return false;
@@ -453,13 +463,16 @@ struct tet_collapse_spec : tet_optimization_invariants<Envelope> {
     std::optional<cache> before(op::collapse_edge, const Mesh& m, const tet_tuple& t) const {
         const auto [a, b] = m.edge_vertices(t);
         if (!too_short(m, a, b)) return std::nullopt;
-        std::optional<cache> c(std::in_place, b, detail::tracked_faces{});
+        std::optional<cache> c(std::in_place, b, m.attribute(s.kind)[b], detail::tracked_faces{});
         for (index_t g : m.vertex_tets(b)) detail::gather_tracked(m, s, g, c->tracked);
         return c;
     }
     template <class Mesh>
     bool after(op::collapse_edge, Mesh& m, const op_result<tet_tuple>& r, cache& c) const {
         const index_t a = r.anchor.vid;
+        auto kind = m.attribute(s.kind);
+        if ((c.kind_b & tet_vertex::surface) && !(kind[a] & tet_vertex::surface))
+            kind.set(a, std::uint8_t(kind[a] | tet_vertex::surface)); // b's surface is a's now
         // Tets keep their slots and local order, so a face keeps its bit; a face through a
         // is also tracked if it replaced a tracked face through b (or merged with one).
         const auto bits = m.attribute(s.tracked);
@@ -474,17 +487,12 @@ struct tet_collapse_spec : tet_optimization_invariants<Envelope> {
         });
         return true;
     }
-    /// The merged vertex's edges changed length; the others did not.
+    /// Every edge of the merged vertex's star: those through it changed length, and the
+    /// entries of the others went stale with their changed tets.
     template <class Mesh, class Push>
     void renew(op::collapse_edge, const Mesh& m, const op_result<tet_tuple>& r, Push& push) const {
-        const index_t a = r.anchor.vid;
-        boost::container::small_vector<index_t, 32> seen;
-        for (index_t g : m.vertex_tets(a))
-            for (index_t x : m.tet_vertices(g))
-                if (x != a && std::find(seen.begin(), seen.end(), x) == seen.end()) {
-                    seen.push_back(x);
-                    push_both(m, m.tuple_at(g, a, x), push);
-                }
+        detail::for_each_star_edge(m, r.anchor.vid,
+                                   [&](const tet_tuple& t) { push_both(m, t, push); });
     }
 };
 
@@ -731,12 +739,25 @@ using tet_optimization_round =
                        schedule::phase<tet_swap_spec<Envelope>>,
                        schedule::phase<tet_smooth_spec<Envelope>, queue::fifo>>;
 
+/// Before the rounds, as fTetWild: the insertion leaves many short edges around the cut
+/// tets; collapsing them and smoothing first keeps the first split from refining them.
+template <class Envelope>
+using tet_optimization_prologue =
+    schedule::sequence<schedule::phase<tet_collapse_spec<Envelope>>,
+                       schedule::phase<tet_smooth_spec<Envelope>, queue::fifo>>;
+
+/// After the rounds: the adaptive sizing is undone and short edges collapsed where the
+/// energy allows, so that refinement made for a bad tet long gone does not stay.
+template <class Envelope>
+using tet_optimization_epilogue = schedule::sequence<schedule::phase<tet_collapse_spec<Envelope>>>;
+
 /// The whole algorithm on a tet mesh whose tracked faces are marked in `tracked` and whose
 /// rational vertices (exact positions in `exact`, approximated in the mesh) are listed.
 template <triangle_envelope Envelope, class Mesh = tet_mesh<>, class Lock = lock::vertex_try_lock,
           class Queue = queue::binary_heap, class Partition = partition::morton>
 struct tet_optimization {
-    using driver = schedule::driver<tet_optimization_round<Envelope>, Mesh, Lock, Queue, Partition>;
+    template <class Schedule>
+    using driver = schedule::driver<Schedule, Mesh, Lock, Queue, Partition>;
 
     /// `observer(round, max_energy)` after every round.
     template <class Observer>
@@ -764,19 +785,26 @@ struct tet_optimization {
         tet_smooth_spec<Envelope> smooth{{s, envelope}};
 
         tet_optimization_report rep;
-        rep.max_energy_before = rep.max_energy = max_energy(m, exec.threads);
+        energy_summary now = energy_stats(m, exec.threads);
+        bool just_refined = false;
+        rep.max_energy_before = rep.max_energy = now.max;
         if (rep.max_energy <= o.stop_energy) {
             rep.stopped = tet_optimization_stop::already_good;
         } else {
+            const auto pro = driver<tet_optimization_prologue<Envelope>>::run(
+                m, exec, 1, schedule::no_observer{}, collapse, smooth);
+            rep.phases[1] += pro.phases[0], rep.phases[3] += pro.phases[1];
+            rep.collapses += pro.phases[0].succeeded, rep.smooths += pro.phases[1].succeeded;
             for (unsigned it = 0; it < o.max_iterations; ++it) {
-                const auto r =
-                    driver::run(m, exec, 1, schedule::no_observer{}, split, collapse, swap, smooth);
+                const auto r = driver<tet_optimization_round<Envelope>>::run(
+                    m, exec, 1, schedule::no_observer{}, split, collapse, swap, smooth);
                 for (std::size_t k = 0; k < 4; ++k) rep.phases[k] += r.phases[k];
                 rep.splits += r.phases[0].succeeded, rep.collapses += r.phases[1].succeeded;
                 rep.swaps += r.phases[2].succeeded, rep.smooths += r.phases[3].succeeded;
                 rep.rounded += round_rational(m, s);
-                const double previous = rep.max_energy;
-                rep.max_energy = max_energy(m, exec.threads);
+                const energy_summary before = now;
+                now = energy_stats(m, exec.threads);
+                rep.max_energy = now.max;
                 rep.max_energy_history.push_back(rep.max_energy);
                 rep.iterations = it + 1;
                 observer(it, rep.max_energy);
@@ -784,9 +812,24 @@ struct tet_optimization {
                     rep.stopped = tet_optimization_stop::energy_reached;
                     break;
                 }
-                if (rep.max_energy > 0.99 * previous)
-                    rep.sizing_refinements += refine_sizing(m, s, o);
+                // fTetWild's trigger: the worst tet gained less than 0.5 and the mean
+                // less than 10%, and the last round did not just change the sizing.
+                if (just_refined) {
+                    just_refined = false;
+                } else if (before.max - now.max < 0.5 &&
+                           before.mean - now.mean < 0.1 * before.mean) {
+                    rep.sizing_refinements += refine_sizing(m, s, o, now.max);
+                    just_refined = true;
+                }
             }
+        }
+        if (rep.stopped != tet_optimization_stop::already_good) {
+            auto sc = m.attribute(s.scale);
+            for (index_t v = 0; v < m.vertex_slots(); ++v) sc.raw(v) = 1.0;
+            const auto epi = driver<tet_optimization_epilogue<Envelope>>::run(
+                m, exec, 1, schedule::no_observer{}, collapse);
+            rep.phases[1] += epi.phases[0], rep.collapses += epi.phases[0].succeeded;
+            rep.max_energy = max_energy(m, exec.threads);
         }
         for (index_t v = 0; v < m.vertex_slots(); ++v)
             rep.rational_left += (m.attribute(s.kind)[v] & tet_vertex::rational) ? 1 : 0;
@@ -797,17 +840,38 @@ struct tet_optimization {
 
     /// The largest AMIPS over the live tets (+infinity if one is flat in doubles).
     static double max_energy(const Mesh& m, unsigned threads) {
+        return energy_stats(m, threads).max;
+    }
+
+    struct energy_summary {
+        double max = 0, mean = 0;
+    };
+    /// The largest and the mean AMIPS (over the tets whose energy is finite).
+    static energy_summary energy_stats(const Mesh& m, unsigned threads) {
         const unsigned T = std::max(1u, threads);
-        std::vector<double> block(T, 0.0);
+        struct block_stats {
+            double max = 0, sum = 0;
+            std::size_t finite = 0;
+        };
+        std::vector<block_stats> block(T);
         const std::size_t slots = m.tet_slots();
         idas::detail::run_workers(T, T, [&](unsigned w) {
-            double mx = 0;
+            block_stats b;
             for (std::size_t t = slots * w / T; t < slots * (w + 1) / T; ++t)
-                if (m.tet_alive(index_t(t)))
-                    mx = std::max(mx, detail::amips(m, m.tet_vertices(index_t(t))));
-            block[w] = mx;
+                if (m.tet_alive(index_t(t))) {
+                    const double e = detail::amips(m, m.tet_vertices(index_t(t)));
+                    b.max = std::max(b.max, e);
+                    if (std::isfinite(e)) b.sum += e, ++b.finite;
+                }
+            block[w] = b;
         });
-        return *std::max_element(block.begin(), block.end());
+        energy_summary out;
+        double sum = 0;
+        std::size_t finite = 0;
+        for (const auto& b : block)
+            out.max = std::max(out.max, b.max), sum += b.sum, finite += b.finite;
+        out.mean = finite ? sum / double(finite) : 0.0;
+        return out;
     }
 
 private:
@@ -866,24 +930,54 @@ private:
         return rounded;
     }
 
-    /// fTetWild's adaptive sizing: where the worst energy stalls, the vertices of the tets
-    /// above the stop energy get half the target length (down to min_scale).
+    /// fTetWild's adaptive sizing, when the energy stalls: around the vertices of tets
+    /// above a filter energy (a hundredth of the worst, within [0.8 stop energy, 100]) the
+    /// target length shrinks, to half at the vertex and back to unchanged at a radius of
+    /// 1.8 target lengths; everywhere else it grows back by half (to at most L). Returns
+    /// how many vertices got a smaller target.
     static std::uint64_t refine_sizing(Mesh& m, tet_optimization_state& s,
-                                       const tet_optimization_options& o) {
+                                       const tet_optimization_options& o, double worst) {
+        const double filter = std::clamp(worst / 100, 0.8 * o.stop_energy, 100.0);
         auto sc = m.attribute(s.scale);
-        std::vector<index_t> shrink;
+        const std::size_t n = m.vertex_slots();
+        std::vector<double> multiplier(n, 1.5);
+        std::vector<index_t> seed(n, invalid_index); // the bad vertex nearest, as found
+        std::vector<index_t> frontier;
         for (index_t g = 0; g < m.tet_slots(); ++g) {
             if (!m.tet_alive(g)) continue;
             const auto& tv = m.tet_vertices(g);
-            if (detail::amips(m, tv) > o.stop_energy)
-                for (index_t v : tv) shrink.push_back(v);
+            if (!(detail::amips(m, tv) > filter)) continue;
+            for (index_t v : tv)
+                if (seed[v] == invalid_index)
+                    seed[v] = v, multiplier[v] = 0.5, frontier.push_back(v);
         }
-        std::sort(shrink.begin(), shrink.end());
-        shrink.erase(std::unique(shrink.begin(), shrink.end()), shrink.end());
-        std::uint64_t n = 0;
-        for (index_t v : shrink)
-            if (sc[v] > o.min_scale) sc.raw(v) = std::max(o.min_scale, 0.5 * sc[v]), ++n;
-        return n;
+        // Spread outwards through the edges, each vertex measured from the seed that
+        // reached it first, while within the seed's radius.
+        std::vector<index_t> next;
+        while (!frontier.empty()) {
+            next.clear();
+            for (index_t v : frontier)
+                for (index_t g : m.vertex_tets(v))
+                    for (index_t w : m.tet_vertices(g)) {
+                        if (seed[w] != invalid_index) continue;
+                        const index_t from = seed[v];
+                        const double radius = 1.8 * s.L * sc[from];
+                        const double d = norm(m.position(w) - m.position(from));
+                        if (!(d < radius)) continue;
+                        seed[w] = from;
+                        multiplier[w] = std::min(multiplier[w], 0.5 + 0.5 * d / radius);
+                        next.push_back(w);
+                    }
+            frontier.swap(next);
+        }
+        std::uint64_t refined = 0;
+        for (index_t v = 0; v < n; ++v) {
+            if (!m.vertex_alive(v)) continue;
+            const double scaled = std::clamp(sc[v] * multiplier[v], o.min_scale, 1.0);
+            refined += scaled < sc[v];
+            sc.raw(v) = scaled;
+        }
+        return refined;
     }
 };
 

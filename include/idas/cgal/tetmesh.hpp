@@ -8,6 +8,7 @@
 // optimization needs them), and the tracked surface says which faces cover the input.
 #pragma once
 
+#include <idas/algorithms/soup_simplification.hpp>
 #include <idas/algorithms/tet_optimization.hpp>
 #include <idas/algorithms/triangle_insertion.hpp>
 #include <idas/algorithms/winding_number.hpp>
@@ -36,23 +37,28 @@ struct options {
     /// points on the background box.
     double edge_length = 1.0 / 20.0;
     bool absolute = false;
+    /// Collapse the soup's short edges inside an envelope of 0.8 epsilon before the
+    /// insertion, as fTetWild does (the full pipeline only: part 1 alone inserts every
+    /// input triangle as it is).
+    bool simplify = true;
 };
 
 /// What the input held and what each stage did, with its seconds.
 struct report {
     std::size_t input_vertices = 0, input_faces = 0;
-    std::size_t welded_vertices = 0;   ///< exact duplicates merged
-    std::size_t degenerate_faces = 0;  ///< collinear corners (exact), dropped
-    std::size_t repeated_faces = 0;    ///< same corners as an earlier face, dropped
-    std::size_t triangles = 0;         ///< inserted: faces left after cleaning
-    std::size_t covered_triangles = 0; ///< exactly covered by tracked faces (checked)
+    std::size_t welded_vertices = 0;      ///< exact duplicates merged
+    std::size_t degenerate_faces = 0;     ///< collinear corners (exact), dropped
+    std::size_t repeated_faces = 0;       ///< same corners as an earlier face, dropped
+    std::size_t triangles = 0;            ///< faces left after cleaning
+    std::size_t simplified_triangles = 0; ///< inserted: faces left after the simplification
+    std::size_t covered_triangles = 0;    ///< exactly covered by tracked faces (checked)
     std::size_t background_tets = 0, cut_tets = 0, refined_tets = 0;
     std::size_t tets = 0, vertices = 0, inside_tets = 0, tracked_faces = 0;
     std::size_t rational_vertices_created = 0, rational_vertices_left = 0;
     std::size_t inverted_tets = 0; ///< exact orient3d <= 0 (always 0)
     double diagonal = 0, epsilon = 0, edge_length = 0;
-    double seconds_cleaning = 0, seconds_delaunay = 0, seconds_insertion = 0, seconds_rounding = 0,
-           seconds_winding = 0, seconds_check = 0;
+    double seconds_cleaning = 0, seconds_simplification = 0, seconds_delaunay = 0,
+           seconds_insertion = 0, seconds_rounding = 0, seconds_winding = 0, seconds_check = 0;
 };
 
 struct result {
@@ -183,10 +189,11 @@ inline std::size_t count_covered(const insertion::inserted_mesh& m, const clean_
 
 namespace detail {
 
-/// Cleaning, background, exact insertion, the cover check and rounding: part 1 without
-/// the labels. `soup` receives the cleaned input.
+/// Cleaning, simplification (if `simplify`), background, exact insertion, the cover check
+/// and rounding: part 1 without the labels. `soup` receives the cleaned input.
 inline result insert_soup(const std::vector<vec3>& vertices, const std::vector<tri_indices>& faces,
-                          const options& opt, const std::string& source, clean_soup& soup) {
+                          const options& opt, const std::string& source, clean_soup& soup,
+                          bool simplify = false, unsigned threads = 1) {
     using clock = std::chrono::steady_clock;
     result out;
     report& r = out.stats;
@@ -202,33 +209,56 @@ inline result insert_soup(const std::vector<vec3>& vertices, const std::vector<t
         throw input_error(source + ": the edge length must be positive and finite");
     r.seconds_cleaning = detail::seconds_since(t0);
 
-    // Background: the soup's vertices and a grid on a box a tenth of the diagonal wider
-    // (at most 50 points a side, so an absurdly small edge length cannot exhaust memory).
+    // The triangles to insert: the cleaned soup, or its simplification welded back.
     t0 = clock::now();
-    std::vector<vec3> points = soup.vertices;
+    clean_soup inserted;
+    if (simplify) {
+        const envelope thinner(soup.vertices, soup.faces, 0.8 * r.epsilon);
+        exec_options exec;
+        exec.threads = std::max(1u, threads);
+        auto [V, F] = algorithms::simplify_soup(soup.vertices, soup.faces, thinner, exec);
+        report ignored;
+        inserted = clean(V, F, source, ignored);
+    } else {
+        inserted = soup;
+    }
+    r.simplified_triangles = inserted.faces.size();
+    r.seconds_simplification = detail::seconds_since(t0);
+
+    // Background, as fTetWild's: the soup's vertices and a grid of spacing diagonal/15 (or
+    // the edge length, if longer; at most 50 cells a side, so an absurd edge length cannot
+    // exhaust memory) on a box one edge length (at least two epsilons) wider, without the
+    // grid points within ten epsilons of the soup. The grid gives the optimization
+    // well-shaped tets away from the surface instead of long slivers to split.
+    t0 = clock::now();
+    std::vector<vec3> points = inserted.vertices;
     {
-        const double margin = 0.1 * r.diagonal;
+        const double margin = std::max(r.edge_length, 2 * r.epsilon);
+        const double spacing = std::max(r.diagonal / 15, r.edge_length);
         vec3 blo = lo, bhi = hi;
         for (int k = 0; k < 3; ++k) blo[k] -= margin, bhi[k] += margin;
         std::array<int, 3> cells{};
-        for (int k = 0; k < 3; ++k)
-            cells[k] = std::clamp(int(std::ceil((bhi[k] - blo[k]) / r.edge_length)), 1, 50);
+        for (int k = 0; k < 3; ++k) cells[k] = std::clamp(int((bhi[k] - blo[k]) / spacing), 1, 50);
         auto coord = [&](int k, int i) {
             return i == cells[k] ? bhi[k] : blo[k] + (bhi[k] - blo[k]) * i / cells[k];
         };
+        const triangle_aabb_tree near(soup.vertices, soup.faces);
+        const double keep_away = 100 * r.epsilon * r.epsilon;
         for (int i = 0; i <= cells[0]; ++i)
             for (int j = 0; j <= cells[1]; ++j)
-                for (int k = 0; k <= cells[2]; ++k)
-                    if (i == 0 || i == cells[0] || j == 0 || j == cells[1] || k == 0 ||
-                        k == cells[2])
-                        points.push_back({coord(0, i), coord(1, j), coord(2, k)});
+                for (int k = 0; k <= cells[2]; ++k) {
+                    const vec3 q{coord(0, i), coord(1, j), coord(2, k)};
+                    const bool on_box = i == 0 || i == cells[0] || j == 0 || j == cells[1] ||
+                                        k == 0 || k == cells[2];
+                    if (on_box || !near.closest_point(q, keep_away)) points.push_back(q);
+                }
     }
     const cgal::delaunay_result dt = cgal::delaunay_tetrahedralization(points);
     insertion::insertion_input in;
     in.vertices = dt.vertices;
     in.tets = dt.tets;
-    in.triangles.reserve(soup.faces.size());
-    for (const auto& f : soup.faces)
+    in.triangles.reserve(inserted.faces.size());
+    for (const auto& f : inserted.faces)
         in.triangles.push_back({dt.index_of[f[0]], dt.index_of[f[1]], dt.index_of[f[2]]});
     r.background_tets = in.tets.size();
     r.seconds_delaunay = detail::seconds_since(t0);
@@ -449,7 +479,7 @@ volume_mesh mesh_volume(const std::vector<vec3>& vertices, const std::vector<tri
                           "energy of a regular tet)");
     volume_mesh out;
     clean_soup soup;
-    result part1 = detail::insert_soup(vertices, faces, opt, source, soup);
+    result part1 = detail::insert_soup(vertices, faces, opt, source, soup, opt.simplify, q.threads);
     out.insertion = part1.stats;
     quality_report& qr = out.quality;
 
