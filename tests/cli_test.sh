@@ -696,6 +696,7 @@ expect_rc "tetmesh optimize hour_glass" 0
 expect_field "tetmesh optimize" "d['optimization']['stopped']" energy_reached
 expect_field "tetmesh optimize" "d['amips']['max'] <= 10 and d['flat_or_inverted_tets'] == 0" True
 expect_field "tetmesh optimize" "d['boundary']['closed_2_manifold']" True
+expect_field "tetmesh optimize simplifies" "d['inserted_triangles'] == d['simplified_triangles'] < d['triangles']" True
 run info "$TMP/hgq.msh" --json
 expect_rc "tetmesh optimized output reads back" 0
 run tetmesh "$DATA/hour_glass.off" "$TMP/hgq2.msh" --json
@@ -703,6 +704,9 @@ if cmp -s "$TMP/hgq.msh" "$TMP/hgq2.msh"; then ok; else fail "tetmesh: two runs 
 run tetmesh "$DATA/hour_glass.off" "$TMP/hgq_all.msh" --keep-outside --ascii --threads 2 --json
 expect_rc "tetmesh optimize --keep-outside on 2 threads" 0
 expect_field "tetmesh --keep-outside" "d['tets'] > d['inside_tets'] > 0" True
+run tetmesh "$DATA/hour_glass.off" "$TMP/hg_ns.msh" --no-simplify --json
+expect_rc "tetmesh --no-simplify" 0
+expect_field "tetmesh --no-simplify" "d['inserted_triangles'] == d['simplified_triangles'] == d['triangles'] == 512 and d['amips']['max'] <= 10" True
 run tetmesh "$DATA/hour_glass.off" "$TMP/hg3.msh" --stop-energy 2
 expect_error "tetmesh stop energy below 3" 2 "stop-energy"
 run tetmesh "$DATA/hour_glass.off" "$TMP/hg.vtu"
