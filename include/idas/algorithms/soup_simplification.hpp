@@ -139,18 +139,19 @@ struct soup_simplification_spec {
             no_normal_flip{}, proven_in_envelope<Envelope>{envelope});
     }
 
-    template <class Mesh>
-    bool movable(const Mesh& m, const typename Mesh::tuple& t) const {
-        const auto [a, b] = m.edge_vertices(t);
-        const auto fr = m.attribute(frozen);
-        return !(fr[a] && fr[b]);
+    /// A push that drops edges with both ends frozen (nothing could collapse them).
+    template <class Mesh, class Push>
+    auto movable_only(const Mesh& m, Push& push) const {
+        return [&m, &push, this](op::collapse_edge o, const typename Mesh::tuple& t) {
+            const auto [a, b] = m.edge_vertices(t);
+            const auto fr = m.attribute(frozen);
+            if (!(fr[a] && fr[b])) push(o, t);
+        };
     }
     template <class Mesh, class Push>
     void initial(const Mesh& m, Push& push) const {
-        auto if_movable = [&](op::collapse_edge o, const typename Mesh::tuple& t) {
-            if (movable(m, t)) push(o, t);
-        };
-        push_all_edges<op::collapse_edge>(m, if_movable);
+        auto filtered = movable_only(m, push);
+        push_all_edges<op::collapse_edge>(m, filtered);
     }
     template <class Mesh>
     double priority(op::collapse_edge, const Mesh& m, const typename Mesh::tuple& t) const {
@@ -200,10 +201,8 @@ struct soup_simplification_spec {
     template <class Mesh, class Push>
     void renew(op::collapse_edge, const Mesh& m, const op_result<typename Mesh::tuple>& r,
                Push& push) const {
-        auto if_movable = [&](op::collapse_edge o, const typename Mesh::tuple& t) {
-            if (movable(m, t)) push(o, t);
-        };
-        push_star_edges<op::collapse_edge>(m, r, if_movable);
+        auto filtered = movable_only(m, push);
+        push_star_edges<op::collapse_edge>(m, r, filtered);
     }
 };
 

@@ -51,6 +51,7 @@
 #include <cstdint>
 #include <limits>
 #include <optional>
+#include <ranges>
 #include <unordered_map>
 #include <vector>
 
@@ -190,11 +191,11 @@ void for_each_tet_edge_from(const Mesh& m, index_t v, Fn&& fn) {
             }
 }
 
-/// Every edge of the tets around v, each once.
-template <class Mesh, class Fn>
-void for_each_star_edge(const Mesh& m, index_t v, Fn&& fn) {
+/// Every edge of the tets `tets` (slots), each once.
+template <class Mesh, class Tets, class Fn>
+void for_each_edge_of(const Mesh& m, const Tets& tets, Fn&& fn) {
     boost::container::small_vector<std::pair<index_t, index_t>, 128> seen;
-    for (index_t g : m.vertex_tets(v)) {
+    for (index_t g : tets) {
         const auto& tv = m.tet_vertices(g);
         for (std::uint8_t le = 0; le < 6; ++le) {
             const auto ev = tet_local::edge_vertices[le];
@@ -209,17 +210,7 @@ void for_each_star_edge(const Mesh& m, index_t v, Fn&& fn) {
 /// The edges of an operation's new tets, each once.
 template <class Mesh, class Fn>
 void for_each_new_edge(const Mesh& m, const op_result<tet_tuple>& r, Fn&& fn) {
-    boost::container::small_vector<std::pair<index_t, index_t>, 64> seen;
-    for (const tet_tuple& c : r.cells) {
-        const auto& tv = m.tet_vertices(c.tid);
-        for (std::uint8_t le = 0; le < 6; ++le) {
-            const auto ev = tet_local::edge_vertices[le];
-            const std::pair<index_t, index_t> key = std::minmax(tv[ev[0]], tv[ev[1]]);
-            if (std::find(seen.begin(), seen.end(), key) != seen.end()) continue;
-            seen.push_back(key);
-            fn(m.tuple_from_edge(c.tid, le));
-        }
-    }
+    for_each_edge_of(m, r.cells | std::views::transform(&tet_tuple::tid), fn);
 }
 
 /// Squared local target length of edge ab.
@@ -491,8 +482,8 @@ struct tet_collapse_spec : tet_optimization_invariants<Envelope> {
     /// entries of the others went stale with their changed tets.
     template <class Mesh, class Push>
     void renew(op::collapse_edge, const Mesh& m, const op_result<tet_tuple>& r, Push& push) const {
-        detail::for_each_star_edge(m, r.anchor.vid,
-                                   [&](const tet_tuple& t) { push_both(m, t, push); });
+        detail::for_each_edge_of(m, m.vertex_tets(r.anchor.vid),
+                                 [&](const tet_tuple& t) { push_both(m, t, push); });
     }
 };
 

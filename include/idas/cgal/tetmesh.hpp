@@ -190,10 +190,11 @@ inline std::size_t count_covered(const insertion::inserted_mesh& m, const clean_
 namespace detail {
 
 /// Cleaning, simplification (if `simplify`), background, exact insertion, the cover check
-/// and rounding: part 1 without the labels. `soup` receives the cleaned input.
+/// and rounding: part 1 without the labels. `soup` receives the cleaned input and `tree`
+/// its distance tree.
 inline result insert_soup(const std::vector<vec3>& vertices, const std::vector<tri_indices>& faces,
                           const options& opt, const std::string& source, clean_soup& soup,
-                          bool simplify = false, unsigned threads = 1) {
+                          triangle_aabb_tree& tree, bool simplify = false, unsigned threads = 1) {
     using clock = std::chrono::steady_clock;
     result out;
     report& r = out.stats;
@@ -242,7 +243,7 @@ inline result insert_soup(const std::vector<vec3>& vertices, const std::vector<t
         auto coord = [&](int k, int i) {
             return i == cells[k] ? bhi[k] : blo[k] + (bhi[k] - blo[k]) * i / cells[k];
         };
-        const triangle_aabb_tree near(soup.vertices, soup.faces);
+        tree = triangle_aabb_tree(soup.vertices, soup.faces);
         const double keep_away = 100 * r.epsilon * r.epsilon;
         for (int i = 0; i <= cells[0]; ++i)
             for (int j = 0; j <= cells[1]; ++j)
@@ -250,7 +251,7 @@ inline result insert_soup(const std::vector<vec3>& vertices, const std::vector<t
                     const vec3 q{coord(0, i), coord(1, j), coord(2, k)};
                     const bool on_box = i == 0 || i == cells[0] || j == 0 || j == cells[1] ||
                                         k == 0 || k == cells[2];
-                    if (on_box || !near.closest_point(q, keep_away)) points.push_back(q);
+                    if (on_box || !tree.closest_point(q, keep_away)) points.push_back(q);
                 }
     }
     const cgal::delaunay_result dt = cgal::delaunay_tetrahedralization(points);
@@ -311,7 +312,8 @@ inline result mesh_insertion(const std::vector<vec3>& vertices,
                              const std::vector<tri_indices>& faces, const options& opt,
                              const std::string& source) {
     clean_soup soup;
-    result out = detail::insert_soup(vertices, faces, opt, source, soup);
+    triangle_aabb_tree tree;
+    result out = detail::insert_soup(vertices, faces, opt, source, soup, tree);
     const auto t0 = std::chrono::steady_clock::now();
     const winding_number w(soup.vertices, soup.faces);
     detail::label(w, out.mesh.vertices, out.mesh.tets, out.winding, out.inside);
@@ -479,7 +481,9 @@ volume_mesh mesh_volume(const std::vector<vec3>& vertices, const std::vector<tri
                           "energy of a regular tet)");
     volume_mesh out;
     clean_soup soup;
-    result part1 = detail::insert_soup(vertices, faces, opt, source, soup, opt.simplify, q.threads);
+    triangle_aabb_tree input;
+    result part1 =
+        detail::insert_soup(vertices, faces, opt, source, soup, input, opt.simplify, q.threads);
     out.insertion = part1.stats;
     quality_report& qr = out.quality;
 
@@ -516,7 +520,6 @@ volume_mesh mesh_volume(const std::vector<vec3>& vertices, const std::vector<tri
         }
     }
     const envelope env(soup.vertices, soup.faces, out.insertion.epsilon);
-    const triangle_aabb_tree input(soup.vertices, soup.faces);
     algorithms::tet_optimization_options o;
     o.target_length = out.insertion.edge_length;
     o.stop_energy = q.stop_energy, o.max_iterations = q.max_iterations;
