@@ -305,6 +305,24 @@ void add_tet_convert_options(CLI::App* convert, tet_convert_arguments& a) {
             ->capture_default_str();
 }
 
+/// The boundary of a tet mesh as a surface on its own vertices (outward faces).
+idas::io::surface boundary_surface(const idas::io::volume& v) {
+    const tet_stats st = compute_tet_stats(v);
+    idas::io::surface s;
+    std::vector<index_t> new_id(v.vertices.size(), idas::invalid_index);
+    for (auto f : st.boundary_face_list) {
+        for (index_t& x : f) {
+            if (new_id[x] == idas::invalid_index) {
+                new_id[x] = static_cast<index_t>(s.vertices.size());
+                s.vertices.push_back(v.vertices[x]);
+            }
+            x = new_id[x];
+        }
+        s.faces.push_back(f);
+    }
+    return s;
+}
+
 /// Whether `convert IN OUT` is a tet-mesh conversion (rather than surface to surface).
 bool is_tet_convert(const std::string& in, const std::string& out) {
     return is_tet_path(in) || is_tet_path(out);
@@ -333,6 +351,8 @@ int run_tet_convert(const std::string& in, const std::string& out, bool ascii,
     if (is_vtu_path(out)) {
         idas::io::vtu_options options;
         options.enc = enc;
+        for (const auto& f : v.vertex_fields) // NaN (no value in the MSH file) stays NaN
+            options.point_data.push_back({f.name, f.components, f.values});
         idas::io::write_vtu(out, v, options);
     } else if (to_tets) {
         idas::io::write_msh(out, v,
@@ -341,19 +361,7 @@ int run_tet_convert(const std::string& in, const std::string& out, bool ascii,
                             enc);
     } else {
         // A surface format gets the boundary, on its own vertices only.
-        const tet_stats st = compute_tet_stats(v);
-        idas::io::surface s;
-        std::vector<index_t> new_id(v.vertices.size(), idas::invalid_index);
-        for (auto f : st.boundary_face_list) {
-            for (index_t& x : f) {
-                if (new_id[x] == idas::invalid_index) {
-                    new_id[x] = static_cast<index_t>(s.vertices.size());
-                    s.vertices.push_back(v.vertices[x]);
-                }
-                x = new_id[x];
-            }
-            s.faces.push_back(f);
-        }
+        const idas::io::surface s = boundary_surface(v);
         save(out, s, ascii);
         fmt::print("{}: boundary of {} tets, {} vertices and {} faces, written to {}\n", in,
                    v.tets.size(), s.vertices.size(), s.faces.size(), out);

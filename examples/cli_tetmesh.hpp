@@ -2,17 +2,21 @@
 // outside (part 1), then the quality optimization (part 2). Included by idas_cli.cpp inside
 // its anonymous namespace, after the helpers it uses.
 //
-//   idas tetmesh IN OUT.msh [--epsilon E] [--edge-length L] [--absolute]
-//                [--stop-energy 10] [--max-iterations 80] [--keep-outside] [--no-simplify]
-//                [--stage insertion|optimize] [--threads T] [--json] [--ascii]
+//   idas tetmesh IN OUT.msh|OUT.vtu [--epsilon E] [--edge-length L] [--absolute]
+//                [--sizing VALUE|FILE.msh] [--stop-energy 10] [--max-iterations 80]
+//                [--keep-outside] [--no-simplify] [--boundary SURFACE]
+//                [--stage insertion|optimize] [--msh-version 2.2|4.1] [--threads T]
+//                [--json] [--ascii]
 //
-// OUT is MSH 2.2: physical tag 1 inside (winding number above 1/2 at its centroid), 2
-// outside. The full run writes the inside only (with --keep-outside, every tet); the
-// insertion stage writes every tet.
+// OUT is MSH (2.2 by default, or 4.1) with physical tag 1 inside (winding number above
+// 1/2 at its centroid) and 2 outside, or VTU with the cell fields "region" (the same 1
+// and 2) and "amips". The full run writes the inside only (with --keep-outside, every
+// tet); the insertion stage writes every tet. --boundary writes the inside's boundary
+// surface (.obj, .off, .ply, .stl).
 #pragma once
 
 struct tetmesh_arguments {
-    std::string in, out, stage = "optimize";
+    std::string in, out, stage = "optimize", sizing, boundary, msh_version = "2.2";
     double epsilon = 1e-3, edge_length = 1.0 / 20.0, stop_energy = 10;
     unsigned max_iterations = 80;
     bool absolute = false, as_json = false, ascii = false, keep_outside = false;
@@ -27,7 +31,9 @@ CLI::App* add_tetmesh_command(CLI::App& app, tetmesh_arguments& a,
                    "inserted exactly into a background mesh, the tets optimized to AMIPS at "
                    "most --stop-energy, the inside kept");
     c->add_option("IN", a.in, "input triangle soup (.obj, .off, .ply, .stl)")->required();
-    c->add_option("OUT", a.out, "output tet mesh (.msh, MSH 2.2: tag 1 inside, 2 outside)")
+    c->add_option("OUT", a.out,
+                  "output tet mesh: .msh (physical tag 1 inside, 2 outside) or .vtu (cell "
+                  "fields region, the same tags, and amips)")
         ->required();
     c->add_option("--epsilon", a.epsilon,
                   "envelope half-width, relative to the bounding-box diagonal (used by the "
@@ -37,7 +43,18 @@ CLI::App* add_tetmesh_command(CLI::App& app, tetmesh_arguments& a,
                   "target edge length, relative to the diagonal (spacing of the background "
                   "box points)")
         ->capture_default_str();
-    c->add_flag("--absolute", a.absolute, "--epsilon and --edge-length are absolute lengths");
+    c->add_flag("--absolute", a.absolute,
+                "--epsilon, --edge-length and a constant --sizing are absolute lengths");
+    c->add_option("--sizing", a.sizing,
+                  "target edge length field of the optimization: a constant (relative to the "
+                  "diagonal unless --absolute), or a .msh tet mesh whose first scalar "
+                  "$NodeData gives an absolute length per node, interpolated linearly (points "
+                  "outside it take the nearest tet's value)");
+    c->add_option("--boundary", a.boundary,
+                  "also write the boundary surface of the inside (.obj, .off, .ply, .stl)");
+    c->add_option("--msh-version", a.msh_version, "MSH version of .msh output")
+        ->check(CLI::IsMember({"2.2", "4.1"}))
+        ->capture_default_str();
     c->add_option("--stop-energy", a.stop_energy,
                   "stop optimizing when the largest AMIPS energy is at most this (>= 3)")
         ->capture_default_str();
@@ -58,7 +75,7 @@ CLI::App* add_tetmesh_command(CLI::App& app, tetmesh_arguments& a,
         ->check(unsigned_check)
         ->capture_default_str();
     c->add_flag("--json", a.as_json, "print one JSON object instead of text");
-    c->add_flag("--ascii", a.ascii, "write MSH as text instead of binary");
+    c->add_flag("--ascii", a.ascii, "write MSH, VTU and the boundary as text instead of binary");
     return c;
 }
 
@@ -71,6 +88,52 @@ void check_insertion_guarantee(const idas::tetmesh::report& r) {
             "internal error: tetmesh covered " + std::to_string(r.covered_triangles) + " of " +
             std::to_string(r.simplified_triangles) + " triangles exactly and left " +
             std::to_string(r.inverted_tets) + " inverted tets; nothing was written");
+}
+
+/// Writes OUT (MSH or VTU, every tet of v with its region tag) and, when asked, the
+/// boundary surface of the inside tets.
+void write_tetmesh_output(const tetmesh_arguments& a, const idas::io::volume& v) {
+    const auto enc = a.ascii ? idas::io::encoding::ascii : idas::io::encoding::binary;
+    if (is_vtu_path(a.out)) {
+        idas::io::vtu_options options;
+        options.enc = enc;
+        idas::io::vtu_field region{"region", 1, {}}, amips{"amips", 1, {}};
+        for (std::size_t t = 0; t < v.tets.size(); ++t) {
+            const auto& tv = v.tets[t];
+            region.values.push_back(v.tags.empty() ? 1.0 : double(v.tags[t]));
+            amips.values.push_back(idas::tet_amips(v.vertices[tv[0]], v.vertices[tv[1]],
+                                                   v.vertices[tv[2]], v.vertices[tv[3]]));
+        }
+        options.cell_data = {std::move(region), std::move(amips)};
+        idas::io::write_vtu(a.out, v, options);
+    } else {
+        idas::io::write_msh(a.out, v,
+                            a.msh_version == "4.1" ? idas::io::msh_version::v4_1
+                                                   : idas::io::msh_version::v2_2,
+                            enc);
+    }
+    if (a.boundary.empty()) return;
+    idas::io::volume inside;
+    inside.vertices = v.vertices;
+    for (std::size_t t = 0; t < v.tets.size(); ++t)
+        if (v.tags.empty() || v.tags[t] == 1) inside.tets.push_back(v.tets[t]);
+    save(a.boundary, boundary_surface(inside), a.ascii);
+}
+
+/// The user's sizing field from a .msh file: its first scalar $NodeData, absolute lengths.
+idas::background_sizing read_sizing_mesh(const std::string& path, double outside) {
+    idas::io::volume bg = load_tets(path);
+    const auto field = std::find_if(bg.vertex_fields.begin(), bg.vertex_fields.end(),
+                                    [](const auto& f) { return f.components == 1; });
+    if (field == bg.vertex_fields.end())
+        throw idas::input_error(path +
+                                ": a sizing mesh needs a scalar $NodeData block (one "
+                                "length per node); this file has " +
+                                std::to_string(bg.vertex_fields.size()) +
+                                " $NodeData blocks, "
+                                "none scalar");
+    return idas::background_sizing(std::move(bg.vertices), std::move(bg.tets), field->values,
+                                   outside, path);
 }
 
 /// What both stages report: the input, the insertion, the lengths and part 1's seconds.
@@ -98,10 +161,13 @@ json insertion_json(const tetmesh_arguments& a, const idas::io::surface& s,
 
 /// The full run: parts 1 and 2.
 int run_tetmesh_optimized(const tetmesh_arguments& a, const idas::io::surface& s,
-                          const idas::tetmesh::options& o, const stopwatch& total) {
+                          const idas::tetmesh::options& o,
+                          const std::optional<idas::background_sizing>& sizing,
+                          const stopwatch& total) {
     idas::tetmesh::quality_options q;
     q.stop_energy = a.stop_energy, q.max_iterations = a.max_iterations;
     q.threads = a.threads, q.keep_outside = a.keep_outside;
+    q.sizing = sizing ? &*sizing : nullptr;
     std::optional<terminal_progress> bar;
     if (!a.as_json) bar.emplace("tetmesh");
     idas::tetmesh::volume_mesh res = idas::tetmesh::mesh_volume(
@@ -134,8 +200,7 @@ int run_tetmesh_optimized(const tetmesh_arguments& a, const idas::io::surface& s
             }
         v.vertices = std::move(kept);
     }
-    idas::io::write_msh(a.out, v, idas::io::msh_version::v2_2,
-                        a.ascii ? idas::io::encoding::ascii : idas::io::encoding::binary);
+    write_tetmesh_output(a, v);
     const char* stop = opt.stopped == idas::algorithms::tet_optimization_stop::iteration_limit
                            ? "iteration_limit"
                            : "energy_reached";
@@ -200,8 +265,16 @@ int run_tetmesh_optimized(const tetmesh_arguments& a, const idas::io::surface& s
 int run_tetmesh(const tetmesh_arguments& a) {
 #if IDAS_CLI_HAVE_CGAL
     const stopwatch total;
-    if (lowercase_extension(a.out) != ".msh")
-        throw idas::input_error(a.out + ": unknown output extension (expected .msh)");
+    if (!is_tet_path(a.out))
+        throw idas::input_error(a.out + ": unknown output extension (expected .msh or .vtu)");
+    if (!a.boundary.empty()) {
+        try {
+            idas::io::format_of(a.boundary);
+        } catch (const idas::input_error&) {
+            throw idas::input_error(a.boundary + ": unknown extension for --boundary (expected "
+                                                 ".obj, .off, .ply or .stl)");
+        }
+    }
     check_threads(a.threads);
     if (!(a.epsilon > 0) || !std::isfinite(a.epsilon) || (!a.absolute && a.epsilon > 1))
         throw idas::input_error("--epsilon must be positive and finite (at most 1 when relative)");
@@ -216,11 +289,45 @@ int run_tetmesh(const tetmesh_arguments& a) {
         throw idas::input_error("--max-iterations must be at most 100000");
     tbb::global_control threads(tbb::global_control::max_allowed_parallelism, a.threads);
 
+    // A number is a constant field (the edge length itself); anything else a sizing mesh.
+    std::optional<double> constant_sizing;
+    if (!a.sizing.empty()) {
+        if (a.stage != "optimize")
+            throw idas::input_error("--sizing applies to the optimization, not to --stage " +
+                                    a.stage);
+        double x = 0;
+        if (idas::io::detail::parse_double(a.sizing, x) == idas::io::detail::parse_status::ok) {
+            if (!(x > 0) || !std::isfinite(x) || (!a.absolute && x > 10))
+                throw idas::input_error("--sizing " + a.sizing +
+                                        ": a constant sizing must be positive and finite (at "
+                                        "most 10 when relative)");
+            constant_sizing = x;
+        } else if (lowercase_extension(a.sizing) != ".msh") {
+            throw idas::input_error("--sizing " + a.sizing +
+                                    ": neither a number nor a .msh sizing mesh");
+        }
+    }
+
     const idas::io::surface s = load(a.in);
     idas::tetmesh::options o;
     o.epsilon = a.epsilon, o.edge_length = a.edge_length, o.absolute = a.absolute;
+    if (constant_sizing) o.edge_length = *constant_sizing;
     o.simplify = !a.no_simplify;
-    if (a.stage == "optimize") return run_tetmesh_optimized(a, s, o, total);
+    std::optional<idas::background_sizing> sizing;
+    if (!a.sizing.empty() && !constant_sizing) {
+        // Outside the sizing mesh: the run's own edge length, which needs the diagonal.
+        double outside = a.edge_length;
+        if (!a.absolute) {
+            idas::vec3 lo = s.vertices.empty() ? idas::vec3{} : s.vertices[0], hi = lo;
+            for (const auto& p : s.vertices)
+                for (int k = 0; k < 3; ++k)
+                    lo[k] = std::min(lo[k], p[k]), hi[k] = std::max(hi[k], p[k]);
+            outside *= idas::norm(hi - lo);
+        }
+        sizing.emplace(
+            read_sizing_mesh(a.sizing, outside > 0 && std::isfinite(outside) ? outside : 1.0));
+    }
+    if (a.stage == "optimize") return run_tetmesh_optimized(a, s, o, sizing, total);
     idas::tetmesh::result res = idas::tetmesh::mesh_insertion(s.vertices, s.faces, o, a.in);
     const auto& r = res.stats;
     check_insertion_guarantee(r);
@@ -241,8 +348,7 @@ int run_tetmesh(const tetmesh_arguments& a) {
                                                       v.vertices[tv[2]], v.vertices[tv[3]]) <= 0)
             ++flat_in_file;
     }
-    idas::io::write_msh(a.out, v, idas::io::msh_version::v2_2,
-                        a.ascii ? idas::io::encoding::ascii : idas::io::encoding::binary);
+    write_tetmesh_output(a, v);
 
     if (a.as_json) {
         json j = insertion_json(a, s, r);

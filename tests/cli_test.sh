@@ -709,8 +709,87 @@ expect_rc "tetmesh --no-simplify" 0
 expect_field "tetmesh --no-simplify" "d['inserted_triangles'] == d['simplified_triangles'] == d['triangles'] == 512 and d['amips']['max'] <= 10" True
 run tetmesh "$DATA/hour_glass.off" "$TMP/hg3.msh" --stop-energy 2
 expect_error "tetmesh stop energy below 3" 2 "stop-energy"
-run tetmesh "$DATA/hour_glass.off" "$TMP/hg.vtu"
-expect_error "tetmesh wrong extension" 2 ".msh"
+run tetmesh "$DATA/hour_glass.off" "$TMP/hg.xyz"
+expect_error "tetmesh wrong extension" 2 ".msh or .vtu"
+# VTU output with its cell fields, MSH 4.1 with both tags, and the boundary surface.
+run tetmesh "$DATA/hour_glass.off" "$TMP/hgq.vtu" --boundary "$TMP/hgq_boundary.obj" --json
+expect_rc "tetmesh .vtu --boundary" 0
+if grep -q 'Name="region"' "$TMP/hgq.vtu" && grep -q 'Name="amips"' "$TMP/hgq.vtu"; then ok; else fail "tetmesh .vtu: no region or amips cell field"; fi
+run info "$TMP/hgq_boundary.obj" --json
+expect_rc "tetmesh --boundary reads back" 0
+expect_field "tetmesh --boundary is closed" "d['closed'] and d['manifold'] and d['oriented']" True
+run tetmesh "$DATA/hour_glass.off" "$TMP/hgq41.msh" --msh-version 4.1 --keep-outside --json
+expect_rc "tetmesh --msh-version 4.1" 0
+tets41=$(field "d['tets']")
+run info "$TMP/hgq41.msh" --json
+expect_field "tetmesh 4.1 output reads back" "d['tets']" "$tets41"
+if python3 - "$TMP/hgq41.msh" <<'PY'
+import sys
+data = open(sys.argv[1], 'rb').read()
+sys.exit(0 if data.startswith(b'$MeshFormat\n4.1 1 8') and b'$Entities' in data else 1)
+PY
+then ok; else fail "tetmesh --msh-version 4.1: not a 4.1 file with entities"; fi
+run tetmesh "$DATA/hour_glass.off" "$TMP/hgq.msh" --boundary "$TMP/b.xyz"
+expect_error "tetmesh --boundary unknown extension" 2 "boundary"
+# Sizing: a constant coarser than the default gives fewer tets; a sizing mesh whose
+# lengths are four times smaller on the low-x half gives shorter edges there.
+run tetmesh "$DATA/hour_glass.off" "$TMP/hg_default.msh" --json
+default_tets=$(field "d['tets']")
+run tetmesh "$DATA/hour_glass.off" "$TMP/hg_coarse.msh" --sizing 0.1 --json
+expect_rc "tetmesh --sizing constant" 0
+expect_field "tetmesh --sizing 0.1 coarser than the default" "d['tets'] < $default_tets" True
+python3 - "$TMP/hgq_all.msh" "$TMP/sizing_bg.msh" "$TMP/sizing_bg_nodata.msh" <<'PY'
+import sys
+# The optimized hour_glass with its outside (MSH 2.2 ASCII) as the background mesh.
+lines = open(sys.argv[1]).read().split('\n')
+i = lines.index('$Nodes'); n = int(lines[i + 1]); nodes = lines[i + 2:i + 2 + n]
+xs = [float(l.split()[1]) for l in nodes]
+ys = [float(l.split()[2]) for l in nodes]; zs = [float(l.split()[3]) for l in nodes]
+lo, hi = min(xs), max(xs)
+diag = ((hi - lo) ** 2 + (max(ys) - min(ys)) ** 2 + (max(zs) - min(zs)) ** 2) ** 0.5
+mid = (lo + hi) / 2
+values = ['%s %r' % (l.split()[0], diag / 40 if float(l.split()[1]) < mid else diag / 10) for l in nodes]
+body = '\n'.join(lines).rstrip('\n')
+open(sys.argv[3], 'w').write(body + '\n')
+open(sys.argv[2], 'w').write(body + '\n$NodeData\n1\n"length"\n1\n0\n3\n0\n1\n%d\n%s\n$EndNodeData\n' % (n, '\n'.join(values)))
+PY
+run tetmesh "$DATA/hour_glass.off" "$TMP/hg_sized.msh" --sizing "$TMP/sizing_bg.msh" --ascii --json
+expect_rc "tetmesh --sizing FILE.msh" 0
+expect_field "tetmesh --sizing FILE.msh meets the stop energy" "d['amips']['max'] <= 10 and d['boundary']['closed_2_manifold']" True
+if python3 - "$TMP/hg_sized.msh" <<'PY'
+import sys, math
+lines = open(sys.argv[1]).read().split('\n')
+i = lines.index('$Nodes'); n = int(lines[i + 1])
+P = {int(l.split()[0]): tuple(map(float, l.split()[1:4])) for l in lines[i + 2:i + 2 + n]}
+j = lines.index('$Elements'); m = int(lines[j + 1])
+lo = min(p[0] for p in P.values()); hi = max(p[0] for p in P.values())
+acc = {0: [0, 0], 1: [0, 0]}
+for l in lines[j + 2:j + 2 + m]:
+    v = [P[int(x)] for x in l.split()[5:9]]
+    cx = sum(p[0] for p in v) / 4
+    side = 0 if cx < lo + 0.3 * (hi - lo) else 1 if cx > hi - 0.3 * (hi - lo) else None
+    if side is None: continue
+    for a in range(4):
+        for b in range(a + 1, 4):
+            acc[side][0] += math.dist(v[a], v[b]); acc[side][1] += 1
+fine, coarse = acc[0][0] / acc[0][1], acc[1][0] / acc[1][1]
+print('fine %.4g coarse %.4g' % (fine, coarse))
+sys.exit(0 if fine < 0.7 * coarse else 1)
+PY
+then ok; else fail "tetmesh --sizing FILE.msh: edges on the fine side are not shorter"; fi
+run tetmesh "$DATA/hour_glass.off" "$TMP/hg3.msh" --sizing "$TMP/sizing_bg_nodata.msh"
+expect_error "tetmesh --sizing mesh without \$NodeData" 2 "NodeData"
+run tetmesh "$DATA/hour_glass.off" "$TMP/hg3.msh" --sizing "$TMP/missing_sizing.msh"
+expect_error "tetmesh --sizing missing file" 2 "missing_sizing.msh"
+run tetmesh "$DATA/hour_glass.off" "$TMP/hg3.msh" --sizing banana
+expect_error "tetmesh --sizing garbage" 2 "sizing"
+run tetmesh "$DATA/hour_glass.off" "$TMP/hg3.msh" --sizing 0
+expect_error "tetmesh --sizing 0" 2 "sizing"
+run tetmesh "$DATA/hour_glass.off" "$TMP/hg3.msh" --sizing 0.1 --stage insertion
+expect_error "tetmesh --sizing with --stage insertion" 2 "sizing"
+run tetmesh "$DATA/hour_glass.off" "$TMP/hg3.msh" --edge-length 1e-5
+expect_error "tetmesh --edge-length far too small" 2 "1/1000"
+if [ ! -e "$TMP/hg3.msh" ]; then ok; else fail "tetmesh: a refused run left an output"; fi
 run tetmesh "$DATA/hour_glass.off" "$TMP/hg3.msh" --edge-length -1
 expect_error "tetmesh negative edge length" 2 "edge-length"
 run tetmesh "$DATA/hour_glass.off" "$TMP/hg3.msh" --epsilon nan

@@ -6,10 +6,13 @@
 #include <idas/io/msh.hpp>
 #include <idas/io/vtu.hpp>
 
+#include <algorithm>
 #include <bit>
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <random>
 #include <sstream>
 #include <string>
@@ -71,7 +74,7 @@ void put(std::string& out, T value, bool big_endian = false) {
 
 volume cube_volume(int n = 2) {
     auto [V, T] = idas::test::cube_arrays(n, false, 0.2, 5);
-    return {V, T, 0, {}};
+    return {V, T, 0, {}, {}};
 }
 
 struct variant {
@@ -135,7 +138,7 @@ TEST_CASE_TEMPLATE("msh: round trips in all four variants are exact", Mesh, IDAS
         Mesh m(r.vertices, r.tets);
         auto [V, T] = m.to_arrays();
         std::stringstream s;
-        write_msh(s, volume{V, T, 0, {}}, var.version, var.enc);
+        write_msh(s, volume{V, T, 0, {}, {}}, var.version, var.enc);
         const volume again = parse_msh(s.str(), "stream");
         CHECK(again.vertices == V);
         CHECK(again.tets == T);
@@ -487,4 +490,87 @@ TEST_CASE("msh: VTU output, ASCII and binary, holds the points, tets and fields"
     o.cell_data[0].values.pop_back();
     CHECK_THROWS_WITH_AS(write_vtu(msh_tmp("bad.vtu"), v, o),
                          doctest::Contains("has 47 values, expected 48"), input_error);
+}
+
+TEST_CASE("msh: $NodeData fields round trip in all four variants, and tags in 4.1") {
+    volume v = cube_volume(2);
+    const std::size_t n = v.vertices.size();
+    vertex_field length{"target length", 1, {}}, velocity{"velocity", 3, {}};
+    for (std::size_t i = 0; i < n; ++i) {
+        length.values.push_back(0.1 + 0.001 * double(i) / 3);
+        for (int k = 0; k < 3; ++k) velocity.values.push_back(double(i) * 1e-3 - k / 7.0);
+    }
+    length.values[2] = std::numeric_limits<double>::quiet_NaN(); // no value at vertex 2
+    v.vertex_fields = {length, velocity};
+    for (std::size_t t = 0; t < v.tets.size(); ++t) v.tags.push_back(t % 3 == 0 ? 2 : 1);
+    for (const auto& var : variants) {
+        INFO(std::string(var.name));
+        const fs::path p = msh_tmp(std::string("fields_") + var.name + ".msh");
+        write_msh(p, v, var.version, var.enc);
+        const volume r = read_msh(p);
+        REQUIRE(r.vertex_fields.size() == 2);
+        CHECK(r.vertex_fields[0].name == "target length");
+        CHECK(r.vertex_fields[1].components == 3);
+        for (std::size_t f = 0; f < 2; ++f) {
+            const auto& a = v.vertex_fields[f].values;
+            const auto& b = r.vertex_fields[f].values;
+            REQUIRE(a.size() == b.size());
+            for (std::size_t i = 0; i < a.size(); ++i) {
+                if (std::isnan(a[i])) {
+                    CHECK(std::isnan(b[i]));
+                    continue;
+                }
+                CHECK(std::bit_cast<std::uint64_t>(a[i]) == std::bit_cast<std::uint64_t>(b[i]));
+            }
+        }
+        // 4.1 groups the tets by tag (one entity each): the same tets, maybe reordered.
+        auto sorted = [](std::vector<idas::tet_indices> t) {
+            std::sort(t.begin(), t.end());
+            return t;
+        };
+        CHECK(sorted(r.tets) == sorted(v.tets));
+        if (var.version == msh_version::v4_1) {
+            const std::string text = slurp(p);
+            CHECK(text.find("$Entities") != std::string::npos);
+        }
+    }
+}
+
+TEST_CASE("msh: $NodeData as Gmsh writes it, and bad $NodeData refused") {
+    const std::string head = sparse_22;
+    const std::string good = head + R"($NodeData
+1
+"A scalar view"
+1
+0.0
+3
+0
+1
+2
+42 0.25
+100 0.5
+$EndNodeData
+)";
+    const volume r = read_msh(msh_scratch("nodedata_good.msh", good));
+    REQUIRE(r.vertex_fields.size() == 1);
+    CHECK(r.vertex_fields[0].name == "A scalar view");
+    // Nodes in file order: 100, 7, 3000000000, 42, 5.
+    CHECK(r.vertex_fields[0].values[0] == 0.5);
+    CHECK(r.vertex_fields[0].values[3] == 0.25);
+    CHECK(std::isnan(r.vertex_fields[0].values[1]));
+
+    msh_refused_text("nodedata_undefined.msh",
+                     head + "$NodeData\n1\n\"s\"\n1\n0\n3\n0\n1\n1\n8 0.5\n$EndNodeData\n",
+                     {"node 8", "not defined"});
+    msh_refused_text("nodedata_components.msh",
+                     head + "$NodeData\n0\n0\n3\n0\n0\n1\n42 0.5\n$EndNodeData\n", {"components"});
+    msh_refused_text("nodedata_ints.msh", head + "$NodeData\n0\n0\n2\n0\n1\n$EndNodeData\n",
+                     {"integer tags"});
+    msh_refused_text("nodedata_lying.msh",
+                     head + "$NodeData\n0\n0\n3\n0\n1\n1000000\n42 0.5\n$EndNodeData\n",
+                     {"announces"});
+    msh_refused_text("nodedata_quote.msh", head + "$NodeData\n1\n\"never closed\n", {"quote"});
+    msh_refused_text("nodedata_value.msh",
+                     head + "$NodeData\n0\n0\n3\n0\n1\n1\n42 abc\n$EndNodeData\n",
+                     {"not a number"});
 }

@@ -90,12 +90,14 @@ struct checked_run {
 };
 
 /// Runs the whole pipeline and checks what every output must satisfy.
-checked_run mesh_and_check(const char* name, unsigned threads, double edge_length = 1.0 / 20) {
+checked_run mesh_and_check(const char* name, unsigned threads, double edge_length = 1.0 / 20,
+                           const background_sizing* sizing = nullptr) {
     const auto s = io::read_surface(data_file(name));
     tetmesh::options o;
     o.edge_length = edge_length;
     tetmesh::quality_options q;
     q.threads = threads;
+    q.sizing = sizing;
     checked_run out{tetmesh::mesh_volume(s.vertices, s.faces, o, q, name), {}};
     const auto& r = out.mesh.quality;
     INFO(name << " on " << threads << " threads");
@@ -163,6 +165,97 @@ TEST_CASE("tetmesh optimization: absurd options are input errors") {
     CHECK_THROWS_AS(tetmesh::mesh_volume(s.vertices, s.faces, {}, q, "sphere"), input_error);
     q.stop_energy = std::numeric_limits<double>::quiet_NaN();
     CHECK_THROWS_AS(tetmesh::mesh_volume(s.vertices, s.faces, {}, q, "sphere"), input_error);
+}
+
+namespace {
+
+/// A box split into Kuhn's six tets around its diagonal, with `length(p)` at its corners.
+template <class Length>
+background_sizing box_field(const vec3& lo, const vec3& hi, Length length, double outside) {
+    std::vector<vec3> V;
+    std::vector<double> values;
+    for (int i = 0; i < 8; ++i) {
+        const vec3 p{i & 1 ? hi.x : lo.x, i & 2 ? hi.y : lo.y, i & 4 ? hi.z : lo.z};
+        V.push_back(p), values.push_back(length(p));
+    }
+    std::vector<tet_indices> T;
+    const int axes[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+    for (const auto& a : axes) {
+        const index_t b1 = index_t(1u << a[0]), b2 = index_t(b1 | (1u << a[1]));
+        T.push_back({0, b1, b2, 7});
+    }
+    return background_sizing(V, T, values, outside, "box field");
+}
+
+} // namespace
+
+TEST_CASE("sizing field: linear inside the background tets, clamped outside, checked") {
+    const vec3 lo{-1, -2, 0}, hi{3, 2, 1};
+    auto linear = [](const vec3& p) { return 2 + 0.25 * p.x - 0.125 * p.y + 0.5 * p.z; };
+    const background_sizing f = box_field(lo, hi, linear, 9);
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<double> u(0, 1);
+    for (int i = 0; i < 500; ++i) {
+        const vec3 p{lo.x + 4 * u(rng), lo.y + 4 * u(rng), u(rng)};
+        CHECK(f(p) == doctest::Approx(linear(p)).epsilon(1e-12));
+    }
+    // Outside: a value of the nearest tet, clamped to it (never extrapolated): within the
+    // values on the box's face x = 3.
+    CHECK(f(vec3{100, 0.5, 0.5}) >= linear(vec3{3, 2, 0}) - 1e-12);
+    CHECK(f(vec3{100, 0.5, 0.5}) <= linear(vec3{3, -2, 1}) + 1e-12);
+    CHECK(f(vec3{std::nan(""), 0, 0}) == 9);
+    auto bad = [&](double value) {
+        return box_field(
+            lo, hi, [&](const vec3& p) { return p.x > 2 ? value : 1.0; }, 1);
+    };
+    CHECK_THROWS_AS(bad(0), input_error);
+    CHECK_THROWS_AS(bad(-1), input_error);
+    CHECK_THROWS_AS(bad(std::numeric_limits<double>::infinity()), input_error);
+    CHECK_THROWS_AS(background_sizing({}, {}, {}, 1, "empty"), input_error);
+    CHECK_THROWS_AS(background_sizing({vec3{}}, {{0, 0, 0, 1}}, {1.0}, 1, "out of range"),
+                    input_error);
+}
+
+TEST_CASE("tetmesh optimization: a sizing field makes edges short where it is small") {
+    // A field linear in x, four times finer at the box's low-x end than at its high end.
+    const auto s = io::read_surface(data_file("sphere.obj"));
+    vec3 lo = s.vertices[0], hi = lo;
+    for (const auto& p : s.vertices)
+        for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], p[k]), hi[k] = std::max(hi[k], p[k]);
+    const double diag = norm(hi - lo);
+    const vec3 pad{0.2 * diag, 0.2 * diag, 0.2 * diag};
+    const background_sizing field = box_field(
+        lo - pad, hi + pad,
+        [&](const vec3& p) { return p.x < 0.5 * (lo.x + hi.x) ? diag / 40 : diag / 10; },
+        diag / 20);
+    const auto run = mesh_and_check("sphere.obj", 1, 1.0 / 20, &field);
+    // Mean edge length of the inside tets in the outer quarters along x.
+    double sum[2] = {0, 0};
+    std::size_t count[2] = {0, 0};
+    const auto& V = run.mesh.vertices;
+    for (std::size_t t = 0; t < run.mesh.tets.size(); ++t) {
+        if (!run.mesh.inside[t]) continue;
+        const auto& tv = run.mesh.tets[t];
+        const double x = (V[tv[0]].x + V[tv[1]].x + V[tv[2]].x + V[tv[3]].x) / 4;
+        const int side = x < lo.x + 0.25 * (hi.x - lo.x)   ? 0
+                         : x > hi.x - 0.25 * (hi.x - lo.x) ? 1
+                                                           : -1;
+        if (side < 0) continue;
+        for (int i = 0; i < 4; ++i)
+            for (int j = i + 1; j < 4; ++j) sum[side] += norm(V[tv[i]] - V[tv[j]]), ++count[side];
+    }
+    REQUIRE(count[0] > 0);
+    REQUIRE(count[1] > 0);
+    const double fine = sum[0] / double(count[0]), coarse = sum[1] / double(count[1]);
+    // The field at the middle of each quarter.
+    const vec3 mid = (lo + hi) * 0.5;
+    const double want_fine = field(vec3{lo.x + 0.125 * (hi.x - lo.x), mid.y, mid.z});
+    const double want_coarse = field(vec3{hi.x - 0.125 * (hi.x - lo.x), mid.y, mid.z});
+    INFO("mean edge length: fine side " << fine << " (field " << want_fine << "), coarse side "
+                                        << coarse << " (field " << want_coarse << ")");
+    CHECK(fine < 0.8 * coarse);
+    CHECK(fine == doctest::Approx(want_fine).epsilon(0.3));
+    CHECK(coarse == doctest::Approx(want_coarse).epsilon(0.3));
 }
 
 #endif

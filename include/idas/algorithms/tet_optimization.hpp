@@ -5,7 +5,8 @@
 //             longest first
 //   collapse  edges shorter than 4/5 of it, shortest first, into one end, unless the
 //             largest AMIPS energy of the changed tets would rise (a surface vertex may go
-//             into any vertex: the envelope decides, as in fTetWild)
+//             into any vertex: the envelope decides, as in fTetWild); a vertex still
+//             rational goes into a neighbour whatever the length
 //   swap      edge removal (3-2, 4-4 and n-(2n-4) swaps, the best triangulation of the
 //             ring) and 2-3 face swaps around the tets whose energy is above a bar, when
 //             they lower the largest energy of the tets they replace, worst tets first
@@ -16,7 +17,8 @@
 //   I  every tet positively oriented (exact orient3d; on the exact coordinates where a
 //      vertex is still rational); every tracked face inside the input's envelope
 //   A  per tet: which of its faces are tracked (cover the input); per vertex: its kind
-//      (surface, feature, rational) and the scale of the local target length
+//      (surface, feature, rational), the sizing field's length there and the adaptive
+//      scale of it
 //   S  a collapse and a smoothing pass first (the insertion leaves many short edges),
 //      then rounds of the four; after each round, rational vertices are rounded where
 //      every tet stays positive, and where the energy stalled the target length shrinks
@@ -35,6 +37,7 @@
 #include <idas/exec/executor.hpp>
 #include <idas/exec/schedule.hpp>
 #include <idas/exec/workers.hpp>
+#include <idas/mesh/sizing_field.hpp>
 #include <idas/mesh/temporary_attribute.hpp>
 #include <idas/mesh/tet_mesh.hpp>
 #include <idas/mesh/tet_quality.hpp>
@@ -72,11 +75,12 @@ concept triangle_envelope = requires(const E& e, const vec3& p) {
 };
 
 struct tet_optimization_options {
-    double target_length = 0;     ///< absolute target edge length L (> 0)
+    double target_length = 0;     ///< absolute target edge length L (> 0), where no field is given
     double stop_energy = 10;      ///< stop when the largest AMIPS is at most this
     unsigned max_iterations = 80; ///< rounds of split, collapse, swap, smooth
     double swap_above = 8;        ///< swaps are tried around tets with AMIPS above this
-    double min_scale = 1.0 / 32;  ///< adaptive sizing never shrinks L below this fraction
+    double min_length = 0;        ///< a sizing field's smaller values are raised to this
+    double min_scale = 1.0 / 32;  ///< adaptive sizing never shrinks the target below this fraction
 };
 
 enum class tet_optimization_stop { energy_reached, iteration_limit, already_good };
@@ -100,11 +104,11 @@ struct no_round_observer {
 
 /// What the phase specs share. The attribute columns belong to the run.
 struct tet_optimization_state {
-    double L = 0;
     double swap_above = 4;
     tet_attribute<std::uint8_t> tracked; ///< bit lf: local face lf is tracked
     vertex_attribute<std::uint8_t> kind; ///< tet_vertex bits
-    vertex_attribute<double> scale;      ///< local target length: L times this
+    vertex_attribute<double> length;     ///< the sizing field at the vertex (absolute)
+    vertex_attribute<double> scale;      ///< local target length: `length` times this
     /// Exact positions of the vertices whose kind has tet_vertex::rational. Read-only
     /// while phases run.
     const std::unordered_map<index_t, rational_point>* exact = nullptr;
@@ -217,7 +221,8 @@ void for_each_new_edge(const Mesh& m, const op_result<tet_tuple>& r, Fn&& fn) {
 template <class Mesh>
 double target_squared(const Mesh& m, const tet_optimization_state& s, index_t a, index_t b) {
     const auto sc = m.attribute(s.scale);
-    const double l = s.L * 0.5 * (sc[a] + sc[b]);
+    const auto len = m.attribute(s.length);
+    const double l = 0.5 * (len[a] * sc[a] + len[b] * sc[b]);
     return l * l;
 }
 
@@ -307,7 +312,7 @@ struct tet_split_spec : tet_optimization_invariants<Envelope> {
         index_t a, b;
         vec3 position;
         std::uint8_t kind;
-        double scale;
+        double scale, length;
         detail::tracked_faces tracked;
     };
 
@@ -333,7 +338,7 @@ struct tet_split_spec : tet_optimization_invariants<Envelope> {
         if (!too_long(m, a, b)) return std::nullopt;
         // Built in place: moving the small vector out of a local trips a false GCC warning.
         std::optional<cache> out(std::in_place, a, b, (m.position(a) + m.position(b)) * 0.5,
-                                 std::uint8_t(0), 0.0, detail::tracked_faces{});
+                                 std::uint8_t(0), 0.0, 0.0, detail::tracked_faces{});
         cache& c = *out;
         int faces_on_edge = 0;
         for (index_t g : m.vertex_tets(a)) {
@@ -346,6 +351,9 @@ struct tet_split_spec : tet_optimization_invariants<Envelope> {
         if (faces_on_edge > 0 && faces_on_edge != 2) c.kind |= tet_vertex::feature;
         const auto sc = m.attribute(s.scale);
         c.scale = 0.5 * (sc[a] + sc[b]);
+        // The midpoint's length, linear along the edge until the round's end re-reads it.
+        const auto len = m.attribute(s.length);
+        c.length = 0.5 * (len[a] + len[b]);
         return out;
     }
     template <class Mesh>
@@ -354,6 +362,7 @@ struct tet_split_spec : tet_optimization_invariants<Envelope> {
         m.positions().set(v, c.position);
         m.attribute(s.kind).set(v, c.kind);
         m.attribute(s.scale).set(v, c.scale);
+        m.attribute(s.length).set(v, c.length);
         // A face through v lies in the old face through edge ab if it holds a or b, and
         // inside an old tet (untracked) otherwise.
         detail::retrack(m, s, r, [&](index_t, std::uint8_t, const tri_indices& k) {
@@ -396,13 +405,26 @@ struct tet_collapse_spec : tet_optimization_invariants<Envelope> {
         return squared_norm(m.position(a) - m.position(b)) <
                0.64 * detail::target_squared(m, s, a, b);
     }
-    /// Both directions: the tuple's vertex survives.
+    /// Whether b should vanish into a: ab is short, or b is still rational. A vertex that
+    /// could not be rounded leaves tets that are flat in doubles (infinite energy), which
+    /// no smoothing can move (no gradient) and no length rule would touch.
+    template <class Mesh>
+    bool wanted(const Mesh& m, index_t a, index_t b) const {
+        return (m.attribute(s.kind)[b] & tet_vertex::rational) || too_short(m, a, b);
+    }
+    /// Both directions where wanted: the tuple's vertex survives.
     template <class Mesh, class Push>
     void push_both(const Mesh& m, const tet_tuple& t, Push& push) const {
         const auto [a, b] = m.edge_vertices(t);
-        if (!too_short(m, a, b)) return;
-        push(op::collapse_edge{}, t);
-        push(op::collapse_edge{}, m.switch_vertex(t));
+        const auto kind = m.attribute(s.kind);
+        if (!((kind[a] | kind[b]) & tet_vertex::rational)) {
+            if (!too_short(m, a, b)) return;
+            push(op::collapse_edge{}, t);
+            push(op::collapse_edge{}, m.switch_vertex(t));
+            return;
+        }
+        if (wanted(m, a, b)) push(op::collapse_edge{}, t);
+        if (wanted(m, b, a)) push(op::collapse_edge{}, m.switch_vertex(t));
     }
     template <class Mesh, class Push>
     void initial_at(const Mesh& m, index_t v, Push& push) const {
@@ -424,7 +446,7 @@ struct tet_collapse_spec : tet_optimization_invariants<Envelope> {
         const tet_tuple& t = e.tuple;
         if (!m.is_valid(t)) return false;
         const auto [a, b] = m.edge_vertices(t);
-        if (!too_short(m, a, b)) return false;
+        if (!wanted(m, a, b)) return false;
         const auto kind = m.attribute(s.kind);
         if (kind[b] & tet_vertex::feature) return false;
         const std::uint8_t pb = s.box_planes(m.position(b));
@@ -453,7 +475,7 @@ struct tet_collapse_spec : tet_optimization_invariants<Envelope> {
     template <class Mesh>
     std::optional<cache> before(op::collapse_edge, const Mesh& m, const tet_tuple& t) const {
         const auto [a, b] = m.edge_vertices(t);
-        if (!too_short(m, a, b)) return std::nullopt;
+        if (!wanted(m, a, b)) return std::nullopt;
         std::optional<cache> c(std::in_place, b, m.attribute(s.kind)[b], detail::tracked_faces{});
         for (index_t g : m.vertex_tets(b)) detail::gather_tracked(m, s, g, c->tracked);
         return c;
@@ -750,7 +772,8 @@ struct tet_optimization {
     template <class Schedule>
     using driver = schedule::driver<Schedule, Mesh, Lock, Queue, Partition>;
 
-    /// `observer(round, max_energy)` after every round.
+    /// `observer(round, max_energy)` after every round. The target length is
+    /// `o.target_length` everywhere.
     template <class Observer>
     static tet_optimization_report run(Mesh& m, tet_attribute<std::uint8_t> tracked,
                                        const std::unordered_map<index_t, rational_point>& exact,
@@ -759,16 +782,32 @@ struct tet_optimization {
                                        Observer&& observer) {
         if (!(o.target_length > 0) || !std::isfinite(o.target_length))
             throw input_error("tet optimization: the target edge length must be positive");
+        return run(m, tracked, exact, envelope, input, o, exec, observer,
+                   uniform_sizing{o.target_length});
+    }
+
+    /// The same with a sizing field: the target length at a vertex is the field's value
+    /// there (read at the start and again after every round, as vertices move and appear)
+    /// times the adaptive scale.
+    template <class Observer, sizing_field Sizing>
+    static tet_optimization_report run(Mesh& m, tet_attribute<std::uint8_t> tracked,
+                                       const std::unordered_map<index_t, rational_point>& exact,
+                                       const Envelope& envelope, const triangle_aabb_tree& input,
+                                       const tet_optimization_options& o, const exec_options& exec,
+                                       Observer&& observer, const Sizing& sizing) {
         const auto start = std::chrono::steady_clock::now();
         tet_optimization_state s;
-        s.L = o.target_length, s.swap_above = o.swap_above;
+        s.swap_above = o.swap_above;
         s.tracked = tracked, s.exact = &exact, s.input = &input;
         const temporary_attribute kind(
             m, m.template add_vertex_attribute<std::uint8_t>("tet_kind", 0));
         const temporary_attribute scale(m,
                                         m.template add_vertex_attribute<double>("tet_scale", 1.0));
-        s.kind = kind.handle, s.scale = scale.handle;
+        const temporary_attribute length(
+            m, m.template add_vertex_attribute<double>("tet_length", 0.0));
+        s.kind = kind.handle, s.scale = scale.handle, s.length = length.handle;
         mark_kinds(m, s, exact);
+        read_sizing(m, s, sizing, o.min_length);
 
         tet_split_spec<Envelope> split{{s, envelope}};
         tet_collapse_spec<Envelope> collapse{{s, envelope}};
@@ -793,6 +832,7 @@ struct tet_optimization {
                 rep.splits += r.phases[0].succeeded, rep.collapses += r.phases[1].succeeded;
                 rep.swaps += r.phases[2].succeeded, rep.smooths += r.phases[3].succeeded;
                 rep.rounded += round_rational(m, s);
+                read_sizing(m, s, sizing, o.min_length);
                 const energy_summary before = now;
                 now = energy_stats(m, exec.threads);
                 rep.max_energy = now.max;
@@ -905,6 +945,22 @@ private:
             if (v < m.vertex_slots()) kind.raw(v) |= tet_vertex::rational;
     }
 
+    /// The field's length at every vertex; a value that is not a positive finite length is
+    /// the field's error, reported with the point.
+    template <sizing_field Sizing>
+    static void read_sizing(Mesh& m, tet_optimization_state& s, const Sizing& sizing,
+                            double min_length) {
+        auto len = m.attribute(s.length);
+        for (index_t v = 0; v < m.vertex_slots(); ++v) {
+            if (!m.vertex_alive(v)) continue;
+            const double l = sizing(m.position(v));
+            if (!(l > 0) || !std::isfinite(l))
+                throw input_error("tet optimization: the sizing field gives " + std::to_string(l) +
+                                  " at a vertex; it must be a positive length");
+            len.raw(v) = std::max(l, min_length);
+        }
+    }
+
     /// Rational vertices whose nearest doubles keep every tet of their star positive
     /// become double vertices. Returns how many.
     static std::size_t round_rational(Mesh& m, tet_optimization_state& s) {
@@ -924,7 +980,7 @@ private:
     /// fTetWild's adaptive sizing, when the energy stalls: around the vertices of tets
     /// above a filter energy (a hundredth of the worst, within [0.8 stop energy, 100]) the
     /// target length shrinks, to half at the vertex and back to unchanged at a radius of
-    /// 1.8 target lengths; everywhere else it grows back by half (to at most L). Returns
+    /// 1.8 target lengths; everywhere else it grows back by half (to at most the field). Returns
     /// how many vertices got a smaller target.
     static std::uint64_t refine_sizing(Mesh& m, tet_optimization_state& s,
                                        const tet_optimization_options& o, double worst) {
@@ -952,7 +1008,7 @@ private:
                     for (index_t w : m.tet_vertices(g)) {
                         if (seed[w] != invalid_index) continue;
                         const index_t from = seed[v];
-                        const double radius = 1.8 * s.L * sc[from];
+                        const double radius = 1.8 * m.attribute(s.length)[from] * sc[from];
                         const double d = norm(m.position(w) - m.position(from));
                         if (!(d < radius)) continue;
                         seed[w] = from;

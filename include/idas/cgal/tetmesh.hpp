@@ -15,6 +15,7 @@
 #include <idas/cgal/delaunay.hpp>
 #include <idas/invariants/envelope.hpp>
 #include <idas/mesh/geometry_range.hpp>
+#include <idas/mesh/sizing_field.hpp>
 #include <idas/mesh/tet_quality.hpp>
 
 #include <tbb/parallel_for.h>
@@ -42,6 +43,10 @@ struct options {
     /// input triangle as it is).
     bool simplify = true;
 };
+
+/// No target length below this fraction of the diagonal (the edge length option; a sizing
+/// field's smaller values are raised to it): a thousandth already means billions of tets.
+inline constexpr double min_relative_length = 1e-3;
 
 /// What the input held and what each stage did, with its seconds.
 struct report {
@@ -208,6 +213,10 @@ inline result insert_soup(const std::vector<vec3>& vertices, const std::vector<t
     r.edge_length = opt.absolute ? opt.edge_length : opt.edge_length * r.diagonal;
     if (!(r.edge_length > 0) || !std::isfinite(r.edge_length))
         throw input_error(source + ": the edge length must be positive and finite");
+    if (r.edge_length < min_relative_length * r.diagonal)
+        throw input_error(source + ": the edge length " + std::to_string(r.edge_length) +
+                          " is below 1/1000 of the diagonal (" + std::to_string(r.diagonal) +
+                          "): billions of tets");
     r.seconds_cleaning = detail::seconds_since(t0);
 
     // The triangles to insert: the cleaned soup, or its simplification welded back.
@@ -329,6 +338,10 @@ struct quality_options {
     unsigned max_iterations = 80; ///< rounds of split, collapse, swap, smooth
     unsigned threads = 1;
     bool keep_outside = false; ///< output every tet (with its label), not only the inside
+    /// The user's sizing field (absolute lengths, at least 1/1000 of the diagonal: smaller
+    /// values are raised to it); without one the target length is options::edge_length
+    /// everywhere.
+    const background_sizing* sizing = nullptr;
 };
 
 /// What the optimization and the output stage did.
@@ -522,11 +535,14 @@ volume_mesh mesh_volume(const std::vector<vec3>& vertices, const std::vector<tri
     const envelope env(soup.vertices, soup.faces, out.insertion.epsilon);
     algorithms::tet_optimization_options o;
     o.target_length = out.insertion.edge_length;
+    o.min_length = min_relative_length * out.insertion.diagonal;
     o.stop_energy = q.stop_energy, o.max_iterations = q.max_iterations;
     exec_options exec;
     exec.threads = std::max(1u, q.threads);
-    qr.optimization = algorithms::tet_optimization<envelope>::run(m, tracked, M.exact, env, input,
-                                                                  o, exec, observer);
+    using optimization = algorithms::tet_optimization<envelope>;
+    qr.optimization =
+        q.sizing ? optimization::run(m, tracked, M.exact, env, input, o, exec, observer, *q.sizing)
+                 : optimization::run(m, tracked, M.exact, env, input, o, exec, observer);
     qr.seconds_optimization = detail::seconds_since(t0);
 
     t0 = clock::now();

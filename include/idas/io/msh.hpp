@@ -1,6 +1,8 @@
 // Gmsh MSH files, versions 2.2 and 4.1, ASCII and binary: tetrahedra are read, every
 // other element type is skipped (and counted). Node tags may be any non-negative
-// integers in any order; they are mapped to 0-based indices in file order.
+// integers in any order; they are mapped to 0-based indices in file order. $NodeData
+// blocks (per-vertex fields: a sizing field, a solution) are read and written back; other
+// sections ($ElementData, $PhysicalNames...) are skipped.
 //
 // Like the surface readers, every problem with a file is an input_error that starts with
 // the path ("<path>: line N: ..." for ASCII, "<path>: byte N: ..." for binary). Counts
@@ -14,9 +16,11 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
+#include <limits>
 #include <ostream>
 #include <string>
 #include <string_view>
@@ -78,6 +82,9 @@ public:
                 have_elements_ = true;
                 v41_ ? elements_41() : elements_22();
                 expect_end("Elements");
+            } else if (name == "NodeData") {
+                node_data();
+                expect_end("NodeData");
             } else {
                 skip_section(name);
             }
@@ -208,7 +215,74 @@ private:
                               " bytes each) but only " + std::to_string(left) + " bytes remain");
     }
 
+    /// A string tag: "quoted" (on one line) or a bare token.
+    std::string string_tag() {
+        skip_space();
+        if (pos_ < data_.size() && data_[pos_] == '"') {
+            const std::size_t end = data_.find_first_of("\"\n", pos_ + 1);
+            if (end == std::string_view::npos || data_[end] != '"')
+                fail_here("a string tag's closing quote is missing");
+            std::string out(data_.substr(pos_ + 1, end - pos_ - 1));
+            pos_ = end + 1;
+            return out;
+        }
+        const std::string_view t = token();
+        if (t.empty()) truncated("where a string tag was expected");
+        return std::string(t);
+    }
+
     // ---- sections ----
+    /// $NodeData: string, real and integer tags (name; time; time step, components,
+    /// count), then per node its tag and its values. Binary files give the tag as a 4-byte
+    /// int in both versions, as Gmsh writes it.
+    void node_data() {
+        raw_field f;
+        const std::uint64_t strings = count("number of string tags");
+        if (strings > 64)
+            fail_here("$NodeData announces " + std::to_string(strings) + " string tags");
+        for (std::uint64_t i = 0; i < strings; ++i) {
+            std::string t = string_tag();
+            if (i == 0) f.name = std::move(t);
+        }
+        const std::uint64_t reals = count("number of real tags");
+        if (reals > 64) fail_here("$NodeData announces " + std::to_string(reals) + " real tags");
+        for (std::uint64_t i = 0; i < reals; ++i) real("real tag");
+        const std::uint64_t ints = count("number of integer tags");
+        if (ints < 3 || ints > 64)
+            fail_here("$NodeData needs 3 integer tags (time step, components, count), not " +
+                      std::to_string(ints));
+        std::uint64_t components = 0, n = 0;
+        for (std::uint64_t i = 0; i < ints; ++i) {
+            const std::uint64_t x = count("integer tag");
+            if (i == 1) components = x;
+            if (i == 2) n = x;
+        }
+        if (components < 1 || components > 9)
+            fail_here("$NodeData has " + std::to_string(components) +
+                      " components per node (1 to 9 are allowed)");
+        f.components = int(components);
+        if (binary_) {
+            line_break_before_binary();
+            need(n, 4 + 8 * components, "node values");
+        } else {
+            need(n, 2 * (1 + components), "node values");
+        }
+        f.tags.reserve(n), f.values.reserve(n * components);
+        for (std::uint64_t i = 0; i < n; ++i) {
+            if (binary_) {
+                const auto tag = bin<std::int32_t>("$NodeData");
+                if (tag < 0) fail_here("$NodeData has negative node tag " + std::to_string(tag));
+                f.tags.push_back(std::uint64_t(tag));
+                for (std::uint64_t k = 0; k < components; ++k)
+                    f.values.push_back(bin<double>("$NodeData"));
+            } else {
+                f.tags.push_back(count("node tag"));
+                for (std::uint64_t k = 0; k < components; ++k) f.values.push_back(real("value"));
+            }
+        }
+        fields_.push_back(std::move(f));
+    }
+
     void parse_format() {
         rest_of_line();
         const std::string_view version = token();
@@ -545,6 +619,22 @@ private:
             }
             out.tets.push_back(tv);
         }
+        for (auto& f : fields_) {
+            vertex_field field;
+            field.name = std::move(f.name);
+            field.components = f.components;
+            const std::size_t c = std::size_t(f.components);
+            field.values.assign(vertices_.size() * c, std::numeric_limits<double>::quiet_NaN());
+            for (std::size_t i = 0; i < f.tags.size(); ++i) {
+                const index_t v = lookup(f.tags[i]);
+                if (v == invalid_index)
+                    fail(source_, "$NodeData \"" + field.name + "\" gives a value for node " +
+                                      std::to_string(f.tags[i]) + ", which is not defined");
+                std::copy_n(f.values.begin() + std::ptrdiff_t(i * c), c,
+                            field.values.begin() + std::ptrdiff_t(std::size_t(v) * c));
+            }
+            out.vertex_fields.push_back(std::move(field));
+        }
         out.vertices = std::move(vertices_);
         return out;
     }
@@ -558,6 +648,13 @@ private:
     std::vector<std::array<std::uint64_t, 4>> tet_nodes_; // node tags, resolved at the end
     std::vector<std::uint64_t> tet_elements_;             // element tags, for messages
     std::size_t skipped_ = 0;
+    struct raw_field {
+        std::string name;
+        int components = 1;
+        std::vector<std::uint64_t> tags; // node tags, resolved at the end
+        std::vector<double> values;
+    };
+    std::vector<raw_field> fields_;
 };
 
 // ---- writing ----
@@ -576,9 +673,39 @@ inline void flush_if_large(std::ostream& os, std::string& buf) {
     }
 }
 
+/// The vertices a field has values for (all finite): the others read back as NaN.
+inline std::vector<std::uint64_t> valued_vertices(const vertex_field& f) {
+    std::vector<std::uint64_t> out;
+    const std::size_t c = std::size_t(f.components);
+    for (std::size_t i = 0; i * c < f.values.size(); ++i)
+        if (std::all_of(f.values.begin() + std::ptrdiff_t(i * c),
+                        f.values.begin() + std::ptrdiff_t((i + 1) * c),
+                        [](double x) { return std::isfinite(x); }))
+            out.push_back(i);
+    return out;
+}
+
+inline std::string node_data_header(const vertex_field& f, std::size_t count) {
+    return "$NodeData\n1\n\"" + f.name + "\"\n1\n0\n3\n0\n" + std::to_string(f.components) + "\n" +
+           std::to_string(count) + "\n";
+}
+
+/// The distinct tet tags, ascending ({1} when the volume has none): one MSH 4.1 volume
+/// entity, with the same physical tag, per tag.
+inline std::vector<int> distinct_tags(const volume& v) {
+    std::vector<int> t = v.tags.empty() ? std::vector<int>{1} : v.tags;
+    std::sort(t.begin(), t.end());
+    t.erase(std::unique(t.begin(), t.end()), t.end());
+    return t;
+}
+inline int tag_of(const volume& v, std::size_t t) {
+    return v.tags.empty() ? 1 : v.tags[t];
+}
+
 inline void write_msh_unchecked(std::ostream& os, const volume& v, msh_version version,
                                 encoding enc) {
     const std::uint64_t n = v.vertices.size(), m = v.tets.size();
+    const std::vector<int> entities = distinct_tags(v);
     if (enc == encoding::ascii) {
         text_sink out(os);
         if (version == msh_version::v2_2) {
@@ -603,21 +730,42 @@ inline void write_msh_unchecked(std::ostream& os, const volume& v, msh_version v
                 for (int k = 0; k < 3; ++k)
                     lo[k] = std::min(lo[k], p[k]), hi[k] = std::max(hi[k], p[k]);
             out << "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n";
-            // One volume entity holds everything.
-            out << "$Entities\n0 0 0 1\n1 " << lo.x << ' ' << lo.y << ' ' << lo.z << ' ' << hi.x
-                << ' ' << hi.y << ' ' << hi.z << " 0 0\n$EndEntities\n";
+            // One volume entity per tag, with that tag as its physical tag.
+            out << "$Entities\n0 0 0 " << std::uint64_t(entities.size()) << '\n';
+            for (int e : entities)
+                out << std::uint64_t(e) << ' ' << lo.x << ' ' << lo.y << ' ' << lo.z << ' ' << hi.x
+                    << ' ' << hi.y << ' ' << hi.z << " 1 " << std::uint64_t(e) << " 0\n";
+            out << "$EndEntities\n";
             out << "$Nodes\n1 " << n << ' ' << std::uint64_t{n ? 1u : 0u} << ' ' << n << "\n3 1 0 "
                 << n << '\n';
             for (std::uint64_t i = 0; i < n; ++i) out << (i + 1) << '\n';
             for (const vec3& p : v.vertices) out << p.x << ' ' << p.y << ' ' << p.z << '\n';
-            out << "$EndNodes\n$Elements\n1 " << m << ' ' << std::uint64_t{m ? 1u : 0u} << ' ' << m
-                << "\n3 1 4 " << m << '\n';
-            for (std::uint64_t t = 0; t < m; ++t) {
-                out << (t + 1);
-                for (index_t x : v.tets[t]) out << ' ' << std::uint64_t{x} + 1;
-                out << '\n';
+            out << "$EndNodes\n$Elements\n"
+                << std::uint64_t(entities.size()) << ' ' << m << ' ' << std::uint64_t{m ? 1u : 0u}
+                << ' ' << m << '\n';
+            for (int e : entities) {
+                std::uint64_t count = 0;
+                for (std::uint64_t t = 0; t < m; ++t) count += tag_of(v, t) == e;
+                out << "3 " << std::uint64_t(e) << " 4 " << count << '\n';
+                for (std::uint64_t t = 0; t < m; ++t) {
+                    if (tag_of(v, t) != e) continue;
+                    out << (t + 1);
+                    for (index_t x : v.tets[t]) out << ' ' << std::uint64_t{x} + 1;
+                    out << '\n';
+                }
             }
             out << "$EndElements\n";
+        }
+        for (const auto& f : v.vertex_fields) {
+            const auto valued = valued_vertices(f);
+            out << node_data_header(f, valued.size());
+            const std::size_t c = std::size_t(f.components);
+            for (std::uint64_t i : valued) {
+                out << (i + 1);
+                for (std::size_t k = 0; k < c; ++k) out << ' ' << f.values[i * c + k];
+                out << '\n';
+            }
+            out << "$EndNodeData\n";
         }
         out.flush();
         return;
@@ -651,15 +799,20 @@ inline void write_msh_unchecked(std::ostream& os, const volume& v, msh_version v
         buf = "$MeshFormat\n4.1 1 8\n";
         put_binary<std::int32_t>(buf, 1);
         buf += "\n$EndMeshFormat\n$Entities\n";
-        for (std::uint64_t c : {0, 0, 0, 1}) put_binary(buf, c);
+        for (std::uint64_t c :
+             {std::uint64_t{0}, std::uint64_t{0}, std::uint64_t{0}, std::uint64_t(entities.size())})
+            put_binary(buf, c);
         vec3 lo{}, hi{};
         if (n) lo = hi = v.vertices[0];
         for (const vec3& p : v.vertices)
             for (int k = 0; k < 3; ++k)
                 lo[k] = std::min(lo[k], p[k]), hi[k] = std::max(hi[k], p[k]);
-        put_binary<std::int32_t>(buf, 1);
-        for (double x : {lo.x, lo.y, lo.z, hi.x, hi.y, hi.z}) put_binary(buf, x);
-        put_binary<std::uint64_t>(buf, 0), put_binary<std::uint64_t>(buf, 0);
+        for (int e : entities) {
+            put_binary<std::int32_t>(buf, e);
+            for (double x : {lo.x, lo.y, lo.z, hi.x, hi.y, hi.z}) put_binary(buf, x);
+            put_binary<std::uint64_t>(buf, 1), put_binary<std::int32_t>(buf, e);
+            put_binary<std::uint64_t>(buf, 0);
+        }
         buf += "\n$EndEntities\n$Nodes\n";
         for (std::uint64_t c : {std::uint64_t{1}, n, std::uint64_t{n ? 1u : 0u}, n})
             put_binary(buf, c);
@@ -675,17 +828,33 @@ inline void write_msh_unchecked(std::ostream& os, const volume& v, msh_version v
             flush_if_large(os, buf);
         }
         buf += "\n$EndNodes\n$Elements\n";
-        for (std::uint64_t c : {std::uint64_t{1}, m, std::uint64_t{m ? 1u : 0u}, m})
+        for (std::uint64_t c : {std::uint64_t(entities.size()), m, std::uint64_t{m ? 1u : 0u}, m})
             put_binary(buf, c);
-        put_binary<std::int32_t>(buf, 3), put_binary<std::int32_t>(buf, 1),
-            put_binary<std::int32_t>(buf, 4);
-        put_binary(buf, m);
-        for (std::uint64_t t = 0; t < m; ++t) {
-            put_binary(buf, t + 1);
-            for (index_t x : v.tets[t]) put_binary(buf, std::uint64_t{x} + 1);
-            flush_if_large(os, buf);
+        for (int e : entities) {
+            std::uint64_t count = 0;
+            for (std::uint64_t t = 0; t < m; ++t) count += tag_of(v, t) == e;
+            put_binary<std::int32_t>(buf, 3), put_binary<std::int32_t>(buf, e),
+                put_binary<std::int32_t>(buf, 4);
+            put_binary(buf, count);
+            for (std::uint64_t t = 0; t < m; ++t) {
+                if (tag_of(v, t) != e) continue;
+                put_binary(buf, t + 1);
+                for (index_t x : v.tets[t]) put_binary(buf, std::uint64_t{x} + 1);
+                flush_if_large(os, buf);
+            }
         }
         buf += "\n$EndElements\n";
+    }
+    for (const auto& f : v.vertex_fields) {
+        const auto valued = valued_vertices(f);
+        buf += node_data_header(f, valued.size());
+        const std::size_t c = std::size_t(f.components);
+        for (std::uint64_t i : valued) {
+            put_binary(buf, static_cast<std::int32_t>(i + 1));
+            for (std::size_t k = 0; k < c; ++k) put_binary(buf, f.values[i * c + k]);
+            flush_if_large(os, buf);
+        }
+        buf += "\n$EndNodeData\n";
     }
     os.write(buf.data(), static_cast<std::streamsize>(buf.size()));
 }

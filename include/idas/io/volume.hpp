@@ -12,6 +12,14 @@
 
 namespace idas::io {
 
+/// Values given per vertex (MSH $NodeData): `components` doubles per vertex, vertex after
+/// vertex; NaN where the file gives no value for a vertex.
+struct vertex_field {
+    std::string name;
+    int components = 1;
+    std::vector<double> values;
+};
+
 /// Tets as stored in a file: positions and 0-based corner indices. Readers guarantee
 /// every index is in range and no tet repeats a vertex; they do not check orientation
 /// or manifoldness (tet_mesh does).
@@ -24,6 +32,8 @@ struct volume {
     /// Per tet, a tag the writers store as the element's physical (and elementary) tag in
     /// MSH 2.2; empty means tag 1 for every tet.
     std::vector<int> tags;
+    /// Per-vertex fields (MSH $NodeData, read and written; VTU point data).
+    std::vector<vertex_field> vertex_fields;
 };
 
 /// Swaps two corners of every negatively oriented tet (exact orient3d), for files
@@ -63,6 +73,16 @@ inline void check_writable(const volume& v, std::string_view target) {
                          std::to_string(v.tets.size()) + " tets");
     for (int tag : v.tags)
         if (tag <= 0) fail(target, "tet tags must be positive (MSH physical tags)");
+    for (const auto& f : v.vertex_fields) {
+        if (f.components < 1 || f.components > 9)
+            fail(target, "vertex field \"" + f.name + "\" has " + std::to_string(f.components) +
+                             " components (1 to 9 can be written)");
+        if (f.values.size() != v.vertices.size() * std::size_t(f.components))
+            fail(target, "vertex field \"" + f.name + "\" has " + std::to_string(f.values.size()) +
+                             " values for " + std::to_string(v.vertices.size()) + " vertices");
+        if (f.name.find_first_of("\"\n\r") != std::string::npos)
+            fail(target, "a vertex field's name holds a quote or a line break");
+    }
 }
 
 } // namespace detail
