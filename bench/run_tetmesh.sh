@@ -2,10 +2,15 @@
 # Tetrahedral meshing, parts 1 and 2 (insertion and quality optimization): `idas tetmesh
 # --json` at 1 and 2 threads beside fTetWild at 1 thread (FTETWILD=path/to/FloatTetwild_bin,
 # built by ../shared/peers/build_ftetwild.sh), same epsilon (1e-3) and edge length (1/20 of
-# the diagonal), on the inputs in INPUTS.
+# the diagonal, or EDGE if set: both tools get it), on the inputs in INPUTS; THREADS lists
+# idas's thread counts (default "1 2").
 #   usage: bench/run_tetmesh.sh [IDAS_BINARY]   (default build/release/examples/idas)
 # Prints one line per run; copy the table into bench/RESULTS.md by hand.
 set -euo pipefail
+EDGE=${EDGE:-}
+IDAS_EDGE=()
+FTW_EDGE=()
+if [ -n "$EDGE" ]; then IDAS_EDGE=(--edge-length "$EDGE"); FTW_EDGE=(-l "$EDGE"); fi
 IDAS=${1:-build/release/examples/idas}
 DATA=${DATA:-data}
 TMP=$(mktemp -d)
@@ -13,9 +18,9 @@ trap 'rm -rf "$TMP"' EXIT
 printf '%-16s %-8s %3s %8s %8s %8s %8s %8s %7s %7s %6s %9s %9s %s\n' input tool thr tets verts \
     amips_mn amips_mx mindih rounds stop closed triangles optimize total
 for f in ${INPUTS:-sphere.obj hour_glass.off x.stl blub.obj 100071_sf.obj 37989_sf.obj bunny.obj}; do
-    for t in 1 2; do
+    for t in ${THREADS:-1 2}; do
         if ! timeout "${LIMIT:-900}" "$IDAS" tetmesh "$DATA/$f" "$TMP/out.msh" --threads "$t" \
-            --json >"$TMP/j.json"; then
+            "${IDAS_EDGE[@]}" --json >"$TMP/j.json"; then
             echo "$f idas $t: failed or over ${LIMIT:-900} s"
             continue
         fi
@@ -31,7 +36,7 @@ PY
     done
     if [ -n "${FTETWILD:-}" ]; then
         start=$(date +%s.%N)
-        if timeout "${LIMIT:-900}" "$FTETWILD" -i "$DATA/$f" -o "$TMP/ftw" --max-threads 1 --level 2 \
+        if timeout "${LIMIT:-900}" "$FTETWILD" -i "$DATA/$f" -o "$TMP/ftw" --max-threads 1 --level 2 "${FTW_EDGE[@]}" \
             >"$TMP/ftw.log" 2>&1; then
             end=$(date +%s.%N)
             opt=$(grep -i "mesh optimization" "$TMP/ftw.log" | grep -oE "[0-9]+\.[0-9]+s" | head -1)

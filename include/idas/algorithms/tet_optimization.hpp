@@ -28,9 +28,10 @@
 //
 // What must stay: the tracked surface (a tracked face is never swapped away, a surface
 // vertex moves or vanishes only within the envelope), its border and intersection curves
-// (feature vertices never move or vanish), and the bounding box (a vertex on a box plane
-// stays on it: splits keep the coordinate, collapses need the survivor on every plane of
-// the removed vertex, smoothing keeps it).
+// (feature vertices never move, and vanish only where the curve stays: into a vertex all
+// but on them, or as an inner point of a straight piece of the curve), and the bounding box (a
+// vertex on a box plane stays on it: splits keep the coordinate, collapses need the survivor on
+// every plane of the removed vertex, smoothing keeps it).
 #pragma once
 
 #include <idas/core/aabb_tree.hpp>
@@ -175,6 +176,44 @@ void retrack(Mesh& m, const tet_optimization_state& s, const op_result<tet_tuple
         }
         if (col[c.tid] != bits) col.set(c.tid, bits);
     }
+}
+
+/// Whether feature vertex b is an inner point of a straight piece of its feature curve
+/// with a as one neighbour on it: b has exactly two feature neighbours along the tracked
+/// faces (edges in other than two tracked faces, the same number of faces each), a and c,
+/// and lies on segment ac up to rounding. Splits put such vertices on the input's borders
+/// and intersection lines; removing one leaves the curve where it was, and without it the
+/// tracked sliver faces they make along a straight curve could never go.
+template <class Mesh>
+bool straight_on_feature_curve(const Mesh& m, const tet_optimization_state& s, index_t a,
+                               index_t b) {
+    tracked_faces faces;
+    for (index_t g : m.vertex_tets(b)) gather_tracked(m, s, g, faces);
+    boost::container::small_vector<std::pair<index_t, int>, 24> around; // neighbour, faces
+    for (const auto& k : faces) {
+        if (!has(k, b)) continue;
+        for (index_t x : k) {
+            if (x == b) continue;
+            auto it = std::find_if(around.begin(), around.end(),
+                                   [&](const auto& e) { return e.first == x; });
+            if (it == around.end())
+                around.push_back({x, 1});
+            else
+                ++it->second;
+        }
+    }
+    index_t ends[2] = {invalid_index, invalid_index};
+    int faces_at[2] = {0, 0}, found = 0;
+    for (const auto& [x, n] : around) {
+        if (n == 2) continue;
+        if (found == 2) return false;
+        ends[found] = x, faces_at[found] = n, ++found;
+    }
+    if (found != 2 || faces_at[0] != faces_at[1] || (ends[0] != a && ends[1] != a)) return false;
+    const index_t c = ends[0] == a ? ends[1] : ends[0];
+    const vec3 pa = m.position(a), ac = m.position(c) - pa, ab = m.position(b) - pa;
+    const double along = dot(ab, ac), ac2 = dot(ac, ac);
+    return along > 0 && along < ac2 && squared_norm(cross(ab, ac)) <= 1e-18 * ac2 * ac2;
 }
 
 template <class Mesh>
@@ -437,10 +476,10 @@ struct tet_collapse_spec : tet_optimization_invariants<Envelope> {
     }
 
     /// The cheap refusals first, before the operation's link condition: b must be allowed
-    /// to vanish into a (not a feature vertex, and a on every box plane b is on), and the
-    /// largest energy of the tets of b's star may not rise. A surface vertex may go into
-    /// any vertex, as in fTetWild: the envelope invariant decides whether its faces may
-    /// follow.
+    /// to vanish into a (a feature vertex only where its curve stays, and a on every box
+    /// plane b is on), and the largest energy of the tets of b's star may not rise. A
+    /// surface vertex may go into any vertex, as in fTetWild: the envelope invariant
+    /// decides whether its faces may follow.
     template <class Mesh>
     bool should_process(op::collapse_edge, const Mesh& m, const queue_entry<tet_tuple>& e) const {
         const tet_tuple& t = e.tuple;
@@ -448,7 +487,13 @@ struct tet_collapse_spec : tet_optimization_invariants<Envelope> {
         const auto [a, b] = m.edge_vertices(t);
         if (!wanted(m, a, b)) return false;
         const auto kind = m.attribute(s.kind);
-        if (kind[b] & tet_vertex::feature) return false;
+        // A feature vertex vanishes only where the curve stays: b all but on a, or an inner
+        // point of a straight piece of the curve.
+        if ((kind[b] & tet_vertex::feature) &&
+            !(squared_norm(m.position(a) - m.position(b)) <=
+              1e-12 * detail::target_squared(m, s, a, b)) &&
+            !detail::straight_on_feature_curve(m, s, a, b))
+            return false;
         const std::uint8_t pb = s.box_planes(m.position(b));
         if ((pb & s.box_planes(m.position(a))) != pb) return false;
         const auto p = m.positions();
