@@ -38,6 +38,7 @@
 #include <idas/exec/executor.hpp>
 #include <idas/exec/schedule.hpp>
 #include <idas/exec/workers.hpp>
+#include <idas/mesh/geometry_range.hpp>
 #include <idas/mesh/sizing_field.hpp>
 #include <idas/mesh/temporary_attribute.hpp>
 #include <idas/mesh/tet_mesh.hpp>
@@ -1000,7 +1001,8 @@ private:
             if (!m.vertex_alive(v)) continue;
             const double l = sizing(m.position(v));
             if (!(l > 0) || !std::isfinite(l))
-                throw input_error("tet optimization: the sizing field gives " + std::to_string(l) +
+                throw input_error("tet optimization: the sizing field gives " +
+                                  idas::detail::shortest(l) +
                                   " at a vertex; it must be a positive length");
             len.raw(v) = std::max(l, min_length);
         }

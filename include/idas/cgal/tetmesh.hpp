@@ -214,9 +214,9 @@ inline result insert_soup(const std::vector<vec3>& vertices, const std::vector<t
     if (!(r.edge_length > 0) || !std::isfinite(r.edge_length))
         throw input_error(source + ": the edge length must be positive and finite");
     if (r.edge_length < min_relative_length * r.diagonal)
-        throw input_error(source + ": the edge length " + std::to_string(r.edge_length) +
-                          " is below 1/1000 of the diagonal (" + std::to_string(r.diagonal) +
-                          "): billions of tets");
+        throw input_error(source + ": the edge length " + idas::detail::shortest(r.edge_length) +
+                          " is below 1/1000 of the diagonal (" +
+                          idas::detail::shortest(r.diagonal) + "): billions of tets");
     r.seconds_cleaning = detail::seconds_since(t0);
 
     // The triangles to insert: the cleaned soup, or its simplification welded back.

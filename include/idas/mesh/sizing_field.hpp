@@ -8,6 +8,7 @@
 #pragma once
 
 #include "idas/core/types.hpp"
+#include "idas/mesh/geometry_range.hpp"
 
 #include <algorithm>
 #include <array>
@@ -54,7 +55,7 @@ public:
         if (tets_.empty()) fail(source, "the sizing field's background mesh has no tets");
         for (std::size_t i = 0; i < values_.size(); ++i)
             if (!(values_[i] > 0) || !std::isfinite(values_[i]))
-                fail(source, "sizing value " + std::to_string(values_[i]) + " at node " +
+                fail(source, "sizing value " + idas::detail::shortest(values_[i]) + " at node " +
                                  std::to_string(i + 1) + " is not a positive finite length");
         if (!(outside_ > 0) || !std::isfinite(outside_))
             fail(source, "the sizing field's value outside its mesh must be positive");
