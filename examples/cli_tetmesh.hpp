@@ -126,12 +126,10 @@ idas::background_sizing read_sizing_mesh(const std::string& path, double outside
     const auto field = std::find_if(bg.vertex_fields.begin(), bg.vertex_fields.end(),
                                     [](const auto& f) { return f.components == 1; });
     if (field == bg.vertex_fields.end())
-        throw idas::input_error(path +
-                                ": a sizing mesh needs a scalar $NodeData block (one "
+        throw idas::input_error(path + ": a sizing mesh needs a scalar $NodeData block (one " +
                                 "length per node); this file has " +
                                 std::to_string(bg.vertex_fields.size()) +
-                                " $NodeData blocks, "
-                                "none scalar");
+                                " $NodeData blocks, none scalar");
     return idas::background_sizing(std::move(bg.vertices), std::move(bg.tets), field->values,
                                    outside, path);
 }

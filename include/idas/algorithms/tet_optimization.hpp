@@ -29,9 +29,9 @@
 // What must stay: the tracked surface (a tracked face is never swapped away, a surface
 // vertex moves or vanishes only within the envelope), its border and intersection curves
 // (feature vertices never move, and vanish only where the curve stays: into a vertex all
-// but on them, or as an inner point of a straight piece of the curve), and the bounding box (a
-// vertex on a box plane stays on it: splits keep the coordinate, collapses need the survivor on
-// every plane of the removed vertex, smoothing keeps it).
+// but on them, or as an inner point of a straight piece of the curve), and the bounding
+// box (a vertex on a box plane stays on it: splits keep the coordinate, collapses need the
+// survivor on every plane of the removed vertex, smoothing keeps it).
 #pragma once
 
 #include <idas/core/aabb_tree.hpp>
@@ -457,14 +457,10 @@ struct tet_collapse_spec : tet_optimization_invariants<Envelope> {
     void push_both(const Mesh& m, const tet_tuple& t, Push& push) const {
         const auto [a, b] = m.edge_vertices(t);
         const auto kind = m.attribute(s.kind);
-        if (!((kind[a] | kind[b]) & tet_vertex::rational)) {
-            if (!too_short(m, a, b)) return;
-            push(op::collapse_edge{}, t);
+        const bool short_edge = too_short(m, a, b); // once for both directions
+        if (short_edge || (kind[b] & tet_vertex::rational)) push(op::collapse_edge{}, t);
+        if (short_edge || (kind[a] & tet_vertex::rational))
             push(op::collapse_edge{}, m.switch_vertex(t));
-            return;
-        }
-        if (wanted(m, a, b)) push(op::collapse_edge{}, t);
-        if (wanted(m, b, a)) push(op::collapse_edge{}, m.switch_vertex(t));
     }
     template <class Mesh, class Push>
     void initial_at(const Mesh& m, index_t v, Push& push) const {
@@ -1027,8 +1023,8 @@ private:
     /// fTetWild's adaptive sizing, when the energy stalls: around the vertices of tets
     /// above a filter energy (a hundredth of the worst, within [0.8 stop energy, 100]) the
     /// target length shrinks, to half at the vertex and back to unchanged at a radius of
-    /// 1.8 target lengths; everywhere else it grows back by half (to at most the field). Returns
-    /// how many vertices got a smaller target.
+    /// 1.8 target lengths; everywhere else it grows back by half (to at most the field).
+    /// Returns how many vertices got a smaller target.
     static std::uint64_t refine_sizing(Mesh& m, tet_optimization_state& s,
                                        const tet_optimization_options& o, double worst) {
         const double filter = std::clamp(worst / 100, 0.8 * o.stop_energy, 100.0);
