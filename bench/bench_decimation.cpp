@@ -10,6 +10,9 @@
 //   cgal-sec        CGAL Surface_mesh_simplification: Edge_length_cost + Midpoint_placement,
 //                   filtered by Bounded_normal_change_filter
 //   idas-qslim      idas::algorithms::qslim (area-weighted plane quadrics, no normal flip)
+//   idas-sec-det, idas-qslim-det
+//                   the same two on lock::deterministic_rounds (the same output at every
+//                   thread count) instead of vertex_try_lock
 //   cgal-gh         CGAL GarlandHeckbert_plane_policies (classic Garland-Heckbert plane
 //                   quadrics, optimal placement), filtered by Bounded_normal_change_filter
 //   openmesh-quadric OpenMesh DecimaterT with ModQuadricT (priority) and ModNormalFlippingT
@@ -122,6 +125,7 @@ run_result run_idas(const surface& in, std::int64_t target, unsigned threads) {
     member("lock_failures", r.lock_failures);
     member("deferred_to_serial", r.deferred_to_serial);
     member("stolen", r.stolen);
+    member("rounds", r.rounds);
     return out;
 }
 
@@ -253,8 +257,8 @@ struct options {
 [[noreturn]] void usage(const std::string& message) {
     std::fprintf(stderr,
                  "bench_decimation: %s\n"
-                 "usage: bench_decimation --peer idas-sec|cgal-sec|idas-qslim|cgal-gh|"
-                 "openmesh-quadric\n"
+                 "usage: bench_decimation --peer idas-sec|idas-sec-det|cgal-sec|idas-qslim|"
+                 "idas-qslim-det|cgal-gh|openmesh-quadric\n"
                  "         [--input x1|x4|x16] [--ratio R] [--threads T] [--samples N]"
                  " [--data FILE.obj]\n",
                  message.c_str());
@@ -318,6 +322,16 @@ int run(const options& o) {
     } else if (o.peer == "idas-qslim") {
         using namespace idas::algorithms;
         r = run_idas<qslim<idas_mesh>, qslim_spec>(in, target, o.threads);
+        algorithm = "qslim";
+    } else if (o.peer == "idas-sec-det") {
+        using namespace idas::algorithms;
+        r = run_idas<shortest_edge_collapse<true, idas_mesh, idas::lock::deterministic_rounds>,
+                     shortest_edge_collapse_spec<true>>(in, target, o.threads);
+        algorithm = "shortest-edge";
+    } else if (o.peer == "idas-qslim-det") {
+        using namespace idas::algorithms;
+        r = run_idas<qslim<idas_mesh, idas::lock::deterministic_rounds>, qslim_spec>(in, target,
+                                                                                     o.threads);
         algorithm = "qslim";
     } else if (o.peer == "cgal-sec") {
         r = run_cgal_sec(in, target);

@@ -75,8 +75,8 @@ int main(int argc, char** argv) {
             return 2;
         }
     }
-    if (lock != "try" && lock != "own-part") {
-        std::fprintf(stderr, "--lock must be try or own-part\n");
+    if (lock != "try" && lock != "own-part" && lock != "det") {
+        std::fprintf(stderr, "--lock must be try, own-part or det\n");
         return 2;
     }
     if (mode != "reduced" && mode != "complete") {
@@ -116,6 +116,9 @@ int main(int argc, char** argv) {
         const auto rep =
             lock == "try"
                 ? harmonic_triangulation<idas::tet_mesh<>, idas::lock::vertex_try_lock>::run(m, o)
+            : lock == "det"
+                ? harmonic_triangulation<idas::tet_mesh<>, idas::lock::deterministic_rounds>::run(m,
+                                                                                                  o)
                 : harmonic_triangulation<idas::tet_mesh<>, idas::lock::own_part_first>::run(m, o);
         const double flip_cpu = cpu_seconds() - cpu0;
         const auto after = idas::algorithms::harmonic_statistics(m);

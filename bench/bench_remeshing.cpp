@@ -3,7 +3,7 @@
 //
 //   bench_remeshing --peer idas|cgal --input bunny|armadillo|armadillo-x4 [--threads T]
 //                   [--envelope EPS] [--length L] [--iterations K] [--samples N]
-//                   [--data-dir DIR]
+//                   [--data-dir DIR] [--lock try|det]
 //
 // Inputs: data/bunny.obj (open), data/armadillo.obj (closed) and armadillo x4 (armadillo
 // after one 1-to-4 midpoint subdivision at run time: 345,928 faces, the same surface),
@@ -13,7 +13,9 @@
 // edges are split and collapsed along the border and border vertices are not smoothed
 // (CGAL's defaults; idas with preserve_boundary = false). `--boundary keep` freezes
 // idas's border vertices instead (the library's default). Neither protects sharp features.
-// --envelope EPS (idas only) adds the exact envelope invariant at EPS times the diagonal.
+// --lock det runs idas on lock::deterministic_rounds (same output at every thread count)
+// instead of vertex_try_lock. --envelope EPS (idas only) adds the exact envelope
+// invariant at EPS times the diagonal.
 //
 // Printed as one JSON object on one line:
 //   seconds_algorithm   wall time of the remeshing call only (idas: isotropic_remeshing::run,
@@ -80,6 +82,7 @@ struct options {
     unsigned iterations = 5;
     double samples = 500000;    // Hausdorff face samples per input surface area
     bool keep_boundary = false; // idas: freeze boundary vertices instead of remeshing along it
+    bool deterministic = false; // idas: lock::deterministic_rounds
 };
 
 [[noreturn]] void usage(const std::string& message) {
@@ -88,7 +91,7 @@ struct options {
                  "usage: bench_remeshing --peer idas|cgal --input bunny|armadillo|armadillo-x4\n"
                  "         [--threads T] [--envelope EPS] [--length L] [--iterations K]"
                  " [--samples N] [--data-dir DIR]\n"
-                 "         [--boundary remesh|keep]\n",
+                 "         [--boundary remesh|keep] [--lock try|det]\n",
                  message.c_str());
     std::exit(2);
 }
@@ -115,6 +118,8 @@ options parse(int argc, char** argv) {
             o.samples = std::stod(v);
         else if (a == "--data-dir")
             o.data_dir = v;
+        else if (a == "--lock" && (v == "try" || v == "det"))
+            o.deterministic = v == "det";
         else if (a == "--boundary" && (v == "remesh" || v == "keep"))
             o.keep_boundary = v == "keep";
         else
@@ -224,6 +229,11 @@ run_result run_idas(const surface& in, double L, const options& o, double eps) {
             r = idas::algorithms::isotropic_remeshing<
                 mesh, idas::lock::vertex_try_lock, idas::queue::dary_heap<4>,
                 idas::partition::morton, idas::envelope>::run(m, ro, exec, env);
+        });
+    } else if (o.deterministic) {
+        out.seconds = timed([&] {
+            r = idas::algorithms::isotropic_remeshing<mesh, idas::lock::deterministic_rounds>::run(
+                m, ro, exec);
         });
     } else {
         out.seconds =

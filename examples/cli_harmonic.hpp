@@ -4,7 +4,8 @@
 // includes the library headers, the CGAL ones when IDAS_CLI_HAVE_CGAL).
 //
 //   idas harmonic OUT (--points IN | --gaussian N [--seed S]) [--mode reduced|complete]
-//                 [--threads T] [--rounds R] [--backend indexed|adjacency] [--json] [--ascii]
+//                 [--threads T] [--rounds R] [--backend indexed|adjacency] [--deterministic]
+//                 [--json] [--ascii]
 //
 // OUT is .msh (MSH 4.1) or .vtu. IN is .xyz or .ply (its vertex element; other elements,
 // such as a dummy face, are ignored).
@@ -18,6 +19,7 @@ struct harmonic_arguments {
     std::string backend = "indexed";
     unsigned threads = 1, rounds = idas::algorithms::harmonic_options{}.rounds;
     bool as_json = false, ascii = false;
+    bool deterministic = false; // lock::deterministic_rounds
     CLI::Option* points_option = nullptr;
     CLI::Option* gaussian_option = nullptr;
 };
@@ -50,6 +52,8 @@ CLI::App* add_harmonic_command(CLI::App& app, harmonic_arguments& a,
                   "links, one tet per vertex)")
         ->check(CLI::IsMember({"indexed", "adjacency"}))
         ->capture_default_str();
+    c->add_flag("--deterministic", a.deterministic,
+                "the same output at every thread count (deterministic rounds)");
     c->add_flag("--json", a.as_json, "print one JSON object instead of text");
     c->add_flag("--ascii", a.ascii, "write MSH and VTU as text instead of binary");
     c->callback([&a] {
@@ -162,7 +166,11 @@ int run_harmonic(const harmonic_arguments& a) {
                                                  std::to_string(round + 1) + ": " +
                                                  std::to_string(pr.succeeded) + " done");
         };
-        r = idas::algorithms::harmonic_triangulation<Mesh>::run_observed(m, o, observer);
+        if (a.deterministic)
+            r = idas::algorithms::harmonic_triangulation<
+                Mesh, idas::lock::deterministic_rounds>::run_observed(m, o, observer);
+        else
+            r = idas::algorithms::harmonic_triangulation<Mesh>::run_observed(m, o, observer);
         after = idas::algorithms::harmonic_statistics(m);
         std::tie(v.vertices, v.tets) = m.to_arrays();
         const stopwatch check_clock;
@@ -193,6 +201,7 @@ int run_harmonic(const harmonic_arguments& a) {
         j["duplicate_points"] = dt.duplicates;
         j["mode"] = a.mode;
         j["threads"] = a.threads;
+        j["deterministic"] = a.deterministic;
         j["backend"] = a.backend;
         j["tets_before"] = before.tets;
         j["tets_after"] = after.tets;

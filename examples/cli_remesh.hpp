@@ -13,6 +13,7 @@ struct remesh_arguments {
     double feature_angle = -1;
     bool keep_boundary = true;
     bool as_json = false, ascii = false;
+    bool deterministic = false; // lock::deterministic_rounds
     std::string backend = "indexed";
     // The default output limit: about 15 GB while remeshing (connectivity, queues,
     // attributes and the written copy take some 150 bytes per face).
@@ -43,7 +44,7 @@ double estimated_faces(const idas::io::surface& s, double target_length) {
     return area / (std::sqrt(3.0) / 4 * target_length * target_length);
 }
 
-template <class Mesh, class... Extra>
+template <class Lock, class Mesh, class... Extra>
 idas::algorithms::remeshing_report remesh_with(Mesh& m,
                                                const idas::algorithms::remeshing_options& o,
                                                unsigned threads, Extra... extra) {
@@ -56,8 +57,8 @@ idas::algorithms::remeshing_report remesh_with(Mesh& m,
         bar.draw(done, "iteration " + std::to_string(iteration + 1) + "/" +
                            std::to_string(o.iterations) + ", " + phases[phase % 4]);
     };
-    return idas::algorithms::isotropic_remeshing<Mesh, idas::lock::vertex_try_lock,
-                                                 idas::queue::dary_heap<4>, idas::partition::morton,
+    return idas::algorithms::isotropic_remeshing<Mesh, Lock, idas::queue::dary_heap<4>,
+                                                 idas::partition::morton,
                                                  Extra...>::run_observed(m, o, exec, observer,
                                                                          extra...);
 }
@@ -98,12 +99,14 @@ int run_remesh(const remesh_arguments& a) {
             throw idas::input_error(
                 fmt::format("--envelope {} is too large for {}", a.envelope, a.in));
         const idas::envelope env(s.vertices, s.faces, a.envelope * in_stats.diagonal);
-        r = remesh_with(m, o, a.threads, env);
+        r = a.deterministic ? remesh_with<idas::lock::deterministic_rounds>(m, o, a.threads, env)
+                            : remesh_with<idas::lock::vertex_try_lock>(m, o, a.threads, env);
 #else
         throw idas::input_error("--envelope needs a build with CGAL");
 #endif
     } else {
-        r = remesh_with(m, o, a.threads);
+        r = a.deterministic ? remesh_with<idas::lock::deterministic_rounds>(m, o, a.threads)
+                            : remesh_with<idas::lock::vertex_try_lock>(m, o, a.threads);
     }
 
     idas::io::surface result;
@@ -121,6 +124,7 @@ int run_remesh(const remesh_arguments& a) {
         j["input_faces"] = s.faces.size();
         j["output_faces"] = result.faces.size();
         j["threads"] = a.threads;
+        j["deterministic"] = a.deterministic;
         j["backend"] = a.backend;
         j["iterations"] = r.iterations;
         j["envelope"] =

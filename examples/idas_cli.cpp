@@ -6,13 +6,16 @@
 //   idas demo IN OUT [--json] [--seed S] [--ops N] [--ascii] [--backend B]
 //                                              random local operations guarded by invariants
 //   idas decimate IN OUT (--ratio R | --faces N) [--algorithm A] [--threads T] [--backend B]
-//                                              shortest edge collapse or QSlim
+//                 [--deterministic]           shortest edge collapse or QSlim
 //   idas remesh IN OUT --edge-length L [--absolute] [--iterations K] [--threads T]
-//               [--envelope EPS] [--backend B]     isotropic remeshing (cli_remesh.hpp)
+//               [--envelope EPS] [--backend B] [--deterministic]
+//                                              isotropic remeshing (cli_remesh.hpp)
 //   idas harmonic OUT (--points IN | --gaussian N [--seed S]) [--mode M] [--threads T]
 //                                              harmonic triangulation of points (cli_harmonic.hpp)
 //   idas tetmesh IN OUT.msh [--epsilon E] [--edge-length L] [--absolute] [--threads T]
 //                                              tet mesh of a triangle soup (cli_tetmesh.hpp)
+// --deterministic (decimate, remesh, harmonic): lock::deterministic_rounds, the same
+// output file at every thread count.
 // B is the triangle connectivity backend, indexed (default) or corner-table (harmonic:
 // tet backend, indexed or adjacency).
 // Surface or tets is decided by the extension: .msh is a tet mesh (MSH 2.2/4.1, read and
@@ -697,7 +700,7 @@ idas::run_report decimate_with(Mesh& m, std::int64_t target, unsigned threads) {
 template <class Mesh>
 int run_decimate(const std::string& in, const std::string& out, const std::string& algorithm,
                  std::optional<double> ratio, std::int64_t faces, unsigned threads, bool as_json,
-                 bool ascii, const std::string& backend) {
+                 bool ascii, const std::string& backend, bool deterministic) {
     using namespace idas::algorithms;
     using mesh_t = Mesh;
     const stopwatch total;
@@ -718,11 +721,17 @@ int run_decimate(const std::string& in, const std::string& out, const std::strin
         ratio ? static_cast<std::int64_t>(std::llround(*ratio * double(input_faces))) : faces;
 
     idas::run_report r;
-    if (algorithm == "qslim")
-        r = decimate_with<qslim<mesh_t>, qslim_spec>(m, target, threads);
+    const auto run = [&]<class Lock>(std::type_identity<Lock>) {
+        if (algorithm == "qslim")
+            r = decimate_with<qslim<mesh_t, Lock>, qslim_spec>(m, target, threads);
+        else
+            r = decimate_with<shortest_edge_collapse<true, mesh_t, Lock>,
+                              shortest_edge_collapse_spec<true>>(m, target, threads);
+    };
+    if (deterministic)
+        run(std::type_identity<idas::lock::deterministic_rounds>{});
     else
-        r = decimate_with<shortest_edge_collapse<true, mesh_t>, shortest_edge_collapse_spec<true>>(
-            m, target, threads);
+        run(std::type_identity<idas::lock::vertex_try_lock>{});
 
     idas::io::surface result;
     std::tie(result.vertices, result.faces) = m.to_arrays();
@@ -742,6 +751,8 @@ int run_decimate(const std::string& in, const std::string& out, const std::strin
         j["output_faces"] = output_faces;
         j["output_vertices"] = result.vertices.size();
         j["threads"] = threads;
+        j["deterministic"] = deterministic;
+        j["rounds"] = r.rounds;
         j["seconds_algorithm"] = r.seconds;
         j["seconds_check"] = t_check;
         j["seconds_total"] = total.seconds();
@@ -752,10 +763,11 @@ int run_decimate(const std::string& in, const std::string& out, const std::strin
         j["deferred_to_serial"] = r.deferred_to_serial;
         fmt::print("{}\n", j.dump(2));
     } else {
-        fmt::print("{}: {} -> {} faces (target {}) by {} on {} thread{} ({} backend) in {:.3f} s "
+        fmt::print("{}: {} -> {} faces (target {}) by {} on {} thread{}{} ({} backend) in {:.3f} s "
                    "(result check {:.3f} s, {:.3f} s total)\n",
                    in, input_faces, output_faces, target, algorithm, threads,
-                   threads == 1 ? "" : "s", backend, r.seconds, t_check, total.seconds());
+                   threads == 1 ? "" : "s", deterministic ? ", deterministic" : "", backend,
+                   r.seconds, t_check, total.seconds());
         fmt::print("  collapses {}, refused {}, stale queue entries {}, lock failures {}\n",
                    r.succeeded, r.refused, r.stale, r.lock_failures);
         fmt::print("  written to {}\n", out);
@@ -832,6 +844,7 @@ int run(int argc, char** argv) {
     double ratio = -1;
     std::int64_t target_faces = -1;
     unsigned threads = 1;
+    bool deterministic = false;
     auto* decimate = app.add_subcommand("decimate", "Decimate by shortest edge collapse or QSlim");
     decimate->add_option("IN", in, "input mesh file (an orientable 2-manifold)")->required();
     decimate->add_option("OUT", out, "output mesh file")->required();
@@ -845,6 +858,8 @@ int run(int argc, char** argv) {
     decimate->add_option("--threads", threads, "worker threads")
         ->check(unsigned_integer)
         ->capture_default_str();
+    decimate->add_flag("--deterministic", deterministic,
+                       "the same output at every thread count (deterministic rounds)");
     decimate->add_flag("--json", as_json, "print one JSON object instead of text");
     decimate->add_flag("--ascii", ascii, "write PLY and STL as text instead of binary");
     decimate->add_option("--backend", backend, "connectivity backend: indexed or corner-table")
@@ -884,6 +899,8 @@ int run(int argc, char** argv) {
         ->check(unsigned_integer)
         ->capture_default_str();
     remesh->add_flag("!--free-boundary", ra.keep_boundary, "let boundary vertices move and vanish");
+    remesh->add_flag("--deterministic", ra.deterministic,
+                     "the same output at every thread count (deterministic rounds)");
     remesh->add_flag("--json", ra.as_json, "print one JSON object instead of text");
     remesh->add_option("--backend", ra.backend, "connectivity backend: indexed or corner-table")
         ->check(CLI::IsMember(backend_names))
@@ -917,9 +934,9 @@ int run(int argc, char** argv) {
     if (tetmesh->parsed()) return run_tetmesh(ta);
     if (decimate->parsed())
         return with_backend(backend, [&]<class Mesh>(std::type_identity<Mesh>) {
-            return run_decimate<Mesh>(in, out, algorithm,
-                                      ratio_opt->count() > 0 ? std::optional(ratio) : std::nullopt,
-                                      target_faces, threads, as_json, ascii, backend);
+            return run_decimate<Mesh>(
+                in, out, algorithm, ratio_opt->count() > 0 ? std::optional(ratio) : std::nullopt,
+                target_faces, threads, as_json, ascii, backend, deterministic);
         });
     if (convert->parsed() && is_tet_convert(in, out))
         return run_tet_convert(in, out, ascii, tet_convert);

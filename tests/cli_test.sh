@@ -271,6 +271,23 @@ expect_error "demo unknown backend" 2 'backend'
 run decimate "$DATA/bunny.off" "$TMP/x.obj" --ratio 0.5 --backend linked-list
 expect_error "decimate unknown backend" 2 'backend'
 
+# --deterministic: the same file at 1 and 3 threads (3 on fewer cores), the target exact.
+run decimate "$DATA/blub.obj" "$TMP/det1.ply" --ratio 0.1 --deterministic --json
+expect_rc "decimate --deterministic" 0
+expect_field "decimate --deterministic" "d['deterministic'] and d['rounds'] > 1" True
+expect_field "decimate --deterministic" "d['output_faces'] in (d['target_faces'], d['target_faces'] - 1)" True
+run decimate "$DATA/blub.obj" "$TMP/det3.ply" --ratio 0.1 --deterministic --threads 3 --json
+expect_rc "decimate --deterministic 3 threads" 0
+if cmp -s "$TMP/det1.ply" "$TMP/det3.ply"; then ok; else fail "decimate --deterministic: files differ at 1 and 3 threads"; fi
+run decimate "$DATA/blub.obj" "$TMP/det3s.ply" --ratio 0.1 --algorithm shortest-edge --deterministic --threads 3
+run decimate "$DATA/blub.obj" "$TMP/det1s.ply" --ratio 0.1 --algorithm shortest-edge --deterministic
+if cmp -s "$TMP/det1s.ply" "$TMP/det3s.ply"; then ok; else fail "decimate shortest-edge --deterministic: files differ"; fi
+run remesh "$DATA/bunny.off" "$TMP/rdet1.ply" --edge-length 0.02 --iterations 2 --deterministic --json
+expect_rc "remesh --deterministic" 0
+expect_field "remesh --deterministic" "d['deterministic']" True
+run remesh "$DATA/bunny.off" "$TMP/rdet3.ply" --edge-length 0.02 --iterations 2 --deterministic --threads 3
+if cmp -s "$TMP/rdet1.ply" "$TMP/rdet3.ply"; then ok; else fail "remesh --deterministic: files differ at 1 and 3 threads"; fi
+
 # ---- remesh ----------------------------------------------------------------------------------
 
 run remesh "$DATA/bunny.off" "$TMP/rem.ply" --edge-length 0.02 --iterations 3 --threads 2 --json
@@ -434,6 +451,10 @@ run info "$TMP/h.msh" --json
 expect_rc "harmonic output reads back" 0
 run harmonic "$TMP/h2.msh" --gaussian 2000 --seed 3 --json
 if cmp -s "$TMP/h.msh" "$TMP/h2.msh"; then ok; else fail "harmonic: serial output not deterministic"; fi
+run harmonic "$TMP/hd1.msh" --gaussian 2000 --seed 3 --deterministic
+run harmonic "$TMP/hd3.msh" --gaussian 2000 --seed 3 --deterministic --threads 3 --json
+expect_field "harmonic --deterministic" "d['deterministic']" True
+if cmp -s "$TMP/hd1.msh" "$TMP/hd3.msh"; then ok; else fail "harmonic --deterministic: files differ at 1 and 3 threads"; fi
 run harmonic "$TMP/h.vtu" --gaussian 2000 --seed 3 --mode reduced --threads 2 --json
 expect_rc "harmonic reduced vtu 2 threads" 0
 expect_field "harmonic reduced" "d['smoothed']" 0

@@ -4,6 +4,7 @@
 
 #include <doctest/doctest.h>
 
+#include <span>
 #include <vector>
 
 using idas::index_t;
@@ -97,4 +98,32 @@ TEST_CASE("slot allocator: parallel pools take dead slots first, undo, end_paral
     CHECK(r.slot == 12);
     CHECK(r.source == slot_source::reused);
     CHECK(a.has_room(1000)); // serial: no limit
+}
+
+TEST_CASE("slot allocator: quota pools, one per operation, dealt in order") {
+    // A deterministic round deals one pool per winning operation, sized by what it may
+    // add: dead slots first (ascending), then new ones, in pool order.
+    slot_allocator a;
+    CHECK(a.release(7));
+    CHECK(a.release(3));
+    const std::vector<index_t> quotas{2, 0, 3};
+    CHECK(a.begin_parallel(std::span<const index_t>(quotas), 10) == 13);
+    CHECK(free_list(a).empty());
+    idas::detail::worker_index = 0;
+    CHECK(a.available(0) == 2);
+    CHECK(a.available(1) == 0);
+    CHECK(a.available(2) == 3);
+    CHECK(a.acquire(13).slot == 3);
+    CHECK(a.acquire(13).slot == 7);
+    CHECK_FALSE(a.has_room(1));
+    idas::detail::worker_index = 2;
+    const auto x = a.acquire(13);
+    CHECK(x.slot == 10);
+    CHECK(x.source == slot_source::pooled);
+    CHECK_FALSE(a.undo_acquire(x.slot, x.source, 13)); // back to its pool
+    CHECK(a.available(2) == 3);
+    CHECK(a.acquire(13).slot == 10);
+    idas::detail::worker_index = 0;
+    a.end_parallel();
+    CHECK(free_list(a) == std::vector<index_t>{11, 12}); // the unused, as dead slots
 }

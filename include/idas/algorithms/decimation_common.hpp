@@ -150,7 +150,9 @@ struct face_target {
     static constexpr std::int64_t tail_faces_per_part = 512;
     void plan_serial_tail(const exec_options& o) noexcept {
         const std::int64_t parts = std::int64_t(o.threads) * std::max(1u, o.parts_per_thread);
-        serial_tail = o.threads > 1 ? target_faces + tail_faces_per_part * parts : 0;
+        // Deterministic rounds meet the target themselves, best first, on any thread count.
+        serial_tail =
+            o.threads > 1 && !o.deterministic ? target_faces + tail_faces_per_part * parts : 0;
     }
     bool stop(const progress& p) const noexcept { return p.faces <= target_faces; }
     /// The parallel workers' goal. A collapse removes two faces (one on the boundary).

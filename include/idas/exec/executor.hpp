@@ -16,6 +16,7 @@
 #pragma once
 
 #include <idas/exec/contract.hpp>
+#include <idas/exec/deterministic.hpp>
 #include <idas/exec/lock.hpp>
 #include <idas/exec/op_list.hpp>
 #include <idas/exec/partition.hpp>
@@ -64,8 +65,10 @@ public:
                       "decorated spec would run as its base and its own hooks would never be "
                       "called: run it with Algorithm::with_spec<Decorated>::run");
         const auto start = std::chrono::steady_clock::now();
-        detail::hooks<Spec, Mesh>::prepare(spec, m, options);
-        schedule_run<Spec, Mesh, Lock, Queue, Partition> run(m, spec, options);
+        exec_options o = options;
+        o.deterministic = deterministic_policy<Lock>;
+        detail::hooks<Spec, Mesh>::prepare(spec, m, o);
+        schedule_run<Spec, Mesh, Lock, Queue, Partition> run(m, spec, o);
         Lock::execute(run);
         detail::hooks<Spec, Mesh>::finish(spec, m);
         run_report report = run.report();

@@ -20,14 +20,27 @@
 
 namespace idas {
 
-/// Owner ids are 1-based worker numbers; 0 means free. A policy also has a static
-/// `execute(run)` (a template over the run type, so checked where the executor calls it).
+/// What every lock policy has: whether it runs workers in parallel, a constructor from
+/// the vertex slot count, and a static `execute(run)` (a template over the run type, so
+/// checked where the executor calls it) that composes the run's phases.
 template <class L>
-concept lock_policy = requires(L l, index_t v, std::uint32_t owner, std::size_t n) {
+concept lock_policy = requires(std::size_t n) {
     { L::parallel } -> std::convertible_to<bool>;
     {L(n)};
+};
+
+/// A policy whose workers claim vertices: owner ids are 1-based worker numbers, 0 means
+/// free.
+template <class L>
+concept claiming_lock_policy = lock_policy<L> && requires(L l, index_t v, std::uint32_t owner) {
     { l.try_lock(v, owner) } -> std::same_as<bool>;
     {l.unlock(v, owner)};
+};
+
+/// Whether a policy promises results that do not depend on the thread count.
+template <class L>
+inline constexpr bool deterministic_policy = requires {
+    requires L::deterministic;
 };
 
 namespace lock {
@@ -260,8 +273,9 @@ public:
 
 } // namespace lock
 
-static_assert(lock_policy<lock::none>);
-static_assert(lock_policy<lock::vertex_try_lock>);
-static_assert(lock_policy<lock::own_part_first>);
+static_assert(claiming_lock_policy<lock::none>);
+static_assert(claiming_lock_policy<lock::vertex_try_lock>);
+static_assert(claiming_lock_policy<lock::own_part_first>);
+static_assert(!deterministic_policy<lock::vertex_try_lock>);
 
 } // namespace idas

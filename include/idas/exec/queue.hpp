@@ -21,15 +21,42 @@ struct queue_entry {
     std::uint8_t retries; // failed lock attempts so far
 };
 
-/// The order that breaks priority ties, so runs are deterministic whatever a heap does
-/// with equal keys: by cell and local simplex (and on tets by vertex, as a collapse is
-/// queued from both ends of its edge).
+/// The whole tuple as two words, for breaking priority ties: entries with equal keys are
+/// equal (a tuple's vertex and version count too, so no two different entries tie).
 constexpr auto tie_key(const tri_tuple& t) noexcept {
-    return std::array<std::uint64_t, 2>{std::uint64_t(t.fid) << 8 | t.local_edge, 0};
+    return std::array<std::uint64_t, 2>{std::uint64_t(t.fid) << 8 | t.local_edge,
+                                        std::uint64_t(t.vid) << 32 | t.version};
 }
 constexpr auto tie_key(const tet_tuple& t) noexcept {
-    return std::array<std::uint64_t, 2>{
-        std::uint64_t(t.tid) << 8 | t.local_edge << 4 | t.local_face, t.vid};
+    return std::array<std::uint64_t, 2>{std::uint64_t(t.tid) << 8 | t.local_edge << 4 |
+                                            t.local_face,
+                                        std::uint64_t(t.vid) << 32 | t.version};
+}
+
+/// A mix of a tie key (splitmix64's finaliser). Equal priorities are common (every edge
+/// of a flat region costs 0 in QSlim): ordered by slot, they would be taken in sweeps
+/// through neighbouring cells; ordered by this hash, they are spread over the mesh, so a
+/// deterministic round finds more of them that do not overlap.
+constexpr std::uint64_t tie_hash(const std::array<std::uint64_t, 2>& k) noexcept {
+    std::uint64_t x = k[0] * 0x9e3779b97f4a7c15ULL ^ k[1];
+    x ^= x >> 30, x *= 0xbf58476d1ce4e5b9ULL;
+    x ^= x >> 27, x *= 0x94d049bb133111ebULL;
+    return x ^ (x >> 31);
+}
+
+/// The order every priority queue pops in: priority, then the tuple's tie hash and key,
+/// then the operation kind. Only identical entries compare equal, so the sequence of pops depends
+/// on what was pushed, not on the order of the pushes (what lets a deterministic run merge
+/// the pushes of its threads in any order).
+template <class E>
+constexpr bool pops_before(const E& a, const E& b) noexcept {
+    if (a.priority != b.priority) return a.priority < b.priority;
+    const auto ka = tie_key(a.tuple), kb = tie_key(b.tuple);
+    if (ka != kb) {
+        const std::uint64_t ha = tie_hash(ka), hb = tie_hash(kb);
+        return ha != hb ? ha < hb : ka < kb;
+    }
+    return a.kind < b.kind;
 }
 
 template <class Q, class E>
@@ -47,10 +74,18 @@ concept queue_for = std::default_initializable<Q> && requires(Q q, const E& e, E
 template <class P, class E>
 concept queue_policy = queue_for<typename P::template type<E>, E>;
 
+/// Whether a queue policy pops in `pops_before` order (so its pops depend only on what
+/// was pushed). Policies say so with `priority_order`; one that does not is not trusted.
+template <class P>
+inline constexpr bool pops_in_priority_order = requires {
+    requires P::priority_order;
+};
+
 namespace queue {
 
 /// Binary min-heap on a vector: O(log n) push and pop, no allocation once reserved.
 struct binary_heap {
+    static constexpr bool priority_order = true;
     template <class E>
     class type {
     public:
@@ -76,11 +111,8 @@ struct binary_heap {
         }
 
     private:
-        // Ties are broken by tuple, so runs are deterministic whatever the heap does.
-        static bool later(const E& a, const E& b) noexcept {
-            if (a.priority != b.priority) return a.priority > b.priority;
-            return tie_key(a.tuple) > tie_key(b.tuple);
-        }
+        // Ties are broken by tuple and kind, so runs are deterministic whatever the heap does.
+        static bool later(const E& a, const E& b) noexcept { return pops_before(b, a); }
         std::vector<E> heap_;
     };
 };
@@ -89,6 +121,7 @@ struct binary_heap {
 /// log_D(n) levels instead of log_2(n) and misses the cache less on large queues.
 template <unsigned D = 4>
 struct dary_heap {
+    static constexpr bool priority_order = true;
     static_assert(D >= 2);
     template <class E>
     class type {
@@ -138,10 +171,7 @@ struct dary_heap {
             }
             heap_[i] = e;
         }
-        static bool earlier(const E& a, const E& b) noexcept {
-            if (a.priority != b.priority) return a.priority < b.priority;
-            return tie_key(a.tuple) < tie_key(b.tuple);
-        }
+        static bool earlier(const E& a, const E& b) noexcept { return pops_before(a, b); }
         std::vector<E> heap_;
     };
 };
@@ -149,6 +179,7 @@ struct dary_heap {
 /// FIFO with no priorities: for schedules where order does not matter (e.g. flips to
 /// convergence). O(1) push and pop.
 struct fifo {
+    static constexpr bool priority_order = false; // pops follow pushes
     template <class E>
     class type {
     public:
@@ -187,6 +218,7 @@ struct fifo {
 /// few low buckets, which stay in cache. Costs 2^Bits empty vectors per queue.
 template <unsigned Bits = 16>
 struct bucket_heap {
+    static constexpr bool priority_order = true;
     static_assert(Bits >= 12 && Bits <= 18); // the bitmap lives inside the queue
     template <class E>
     class type {
@@ -273,10 +305,7 @@ struct bucket_heap {
             }
             return buckets;
         }
-        static bool later(const E& a, const E& b) noexcept {
-            if (a.priority != b.priority) return a.priority > b.priority;
-            return tie_key(a.tuple) > tie_key(b.tuple);
-        }
+        static bool later(const E& a, const E& b) noexcept { return pops_before(b, a); }
         std::vector<std::vector<E>> buckets_; // allocated on the first push
         std::array<std::uint64_t, buckets / 64> words_{};
         std::array<std::uint64_t, (buckets / 64 + 63) / 64> summary_{};
@@ -290,5 +319,8 @@ static_assert(queue_policy<queue::binary_heap, queue_entry<tri_tuple>>);
 static_assert(queue_policy<queue::dary_heap<4>, queue_entry<tri_tuple>>);
 static_assert(queue_policy<queue::fifo, queue_entry<tri_tuple>>);
 static_assert(queue_policy<queue::bucket_heap<>, queue_entry<tri_tuple>>);
+static_assert(pops_in_priority_order<queue::binary_heap> &&
+              pops_in_priority_order<queue::dary_heap<>> &&
+              pops_in_priority_order<queue::bucket_heap<>> && !pops_in_priority_order<queue::fifo>);
 
 } // namespace idas

@@ -18,6 +18,12 @@ struct exec_options {
     unsigned max_retry = 8;    // lock failures before an entry goes to the final serial pass
     unsigned check_every = 32; // successes between `stop` checks per worker (parallel only)
     unsigned parts_per_thread = 1;
+    /// Set by the executor for a deterministic lock policy: a spec's `prepare` must then
+    /// not plan by thread count (the result may not depend on it).
+    bool deterministic = false;
+    /// Deterministic rounds: candidates per round (0: a 64th of the live cells, clamped
+    /// to [1024, 65536]). Part of the result: the same value gives the same mesh.
+    unsigned round_size = 0;
 };
 
 struct run_report {
@@ -26,6 +32,7 @@ struct run_report {
     std::uint64_t lock_failures = 0, deferred_to_serial = 0, stolen = 0;
     std::uint64_t crossed_parts = 0; // own_part_first: waited for the claiming phase
     double owner_seconds = 0;        // own_part_first: time of the lock-free phase
+    std::uint64_t rounds = 0;        // deterministic_rounds: rounds run
     std::int64_t faces = 0, vertices = 0;
     unsigned threads = 1;
     double seconds = 0;
@@ -37,7 +44,7 @@ struct run_report {
         skipped += o.skipped, attempted += o.attempted, succeeded += o.succeeded;
         refused += o.refused, lock_failures += o.lock_failures;
         deferred_to_serial += o.deferred_to_serial, stolen += o.stolen;
-        crossed_parts += o.crossed_parts, owner_seconds += o.owner_seconds;
+        crossed_parts += o.crossed_parts, owner_seconds += o.owner_seconds, rounds += o.rounds;
         seconds += o.seconds;
         return *this;
     }

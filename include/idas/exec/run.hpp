@@ -34,6 +34,10 @@ op_context<Mesh>& thread_context();
 template <class Spec, class Mesh, class Lock, class Queue, class Partition>
 class schedule_run {
 public:
+    using mesh_type = Mesh;
+    using spec_type = Spec;
+    using queue_policy_type = Queue;
+    using partition_type = Partition;
     using tuple = typename Mesh::tuple;
     using entry = queue_entry<tuple>;
     using queue_type = typename Queue::template type<entry>;

@@ -21,6 +21,7 @@
 #include <array>
 #include <cstring>
 #include <optional>
+#include <span>
 #include <string>
 #include <tuple>
 #include <utility>
@@ -566,6 +567,13 @@ public:
     void begin_parallel(unsigned workers, index_t extra_vertices,
                         index_t extra_tets) requires parallel_growth {
         conn_.begin_parallel(workers, extra_vertices, extra_tets);
+        grow_attributes();
+    }
+    /// The same with a quota per pool (a deterministic round: one pool per operation, in
+    /// a fixed order, so new slots do not depend on which thread made them).
+    void begin_parallel(std::span<const index_t> vertex_quotas,
+                        std::span<const index_t> tet_quotas) requires parallel_growth {
+        conn_.begin_parallel(vertex_quotas, tet_quotas);
         grow_attributes();
     }
     void end_parallel() requires parallel_growth { conn_.end_parallel(); }

@@ -12,6 +12,7 @@
 #include <boost/container/small_vector.hpp>
 
 #include <optional>
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
@@ -271,6 +272,13 @@ public:
     void begin_parallel(unsigned workers, index_t extra_vertices,
                         index_t extra_faces) requires parallel_growth {
         conn_.begin_parallel(workers, extra_vertices, extra_faces);
+        grow_attributes();
+    }
+    /// The same with a quota per pool (a deterministic round: one pool per operation, in
+    /// a fixed order, so new slots do not depend on which thread made them).
+    void begin_parallel(std::span<const index_t> vertex_quotas,
+                        std::span<const index_t> face_quotas) requires parallel_growth {
+        conn_.begin_parallel(vertex_quotas, face_quotas);
         grow_attributes();
     }
     void end_parallel() requires parallel_growth { conn_.end_parallel(); }

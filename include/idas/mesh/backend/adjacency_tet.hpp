@@ -271,6 +271,15 @@ public:
         valive_.resize(nv, 0);
         tets_.resize(nt, dead_tet());
     }
+    /// The same with a quota per pool: a deterministic round deals one pool per operation.
+    void begin_parallel(std::span<const index_t> vertex_quotas,
+                        std::span<const index_t> tet_quotas) {
+        const index_t nv = vertex_alloc_.begin_parallel(vertex_quotas, vertex_slots());
+        const index_t nt = tet_alloc_.begin_parallel(tet_quotas, tet_slots());
+        anchor_.resize(nv, invalid_index);
+        valive_.resize(nv, 0);
+        tets_.resize(nt, dead_tet());
+    }
     /// Unused pool slots become ordinary recyclable dead slots again.
     void end_parallel() { vertex_alloc_.end_parallel(), tet_alloc_.end_parallel(); }
     bool has_room(index_t vertices, index_t tets) const noexcept {

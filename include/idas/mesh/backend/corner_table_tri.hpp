@@ -375,6 +375,15 @@ public:
         valive_.resize(nv, 0);
         faces_.resize(nf, dead_face());
     }
+    /// The same with a quota per pool: a deterministic round deals one pool per operation.
+    void begin_parallel(std::span<const index_t> vertex_quotas,
+                        std::span<const index_t> face_quotas) {
+        const index_t nv = vertex_alloc_.begin_parallel(vertex_quotas, vertex_slots());
+        const index_t nf = face_alloc_.begin_parallel(face_quotas, face_slots());
+        anchor_.resize(nv, invalid_index);
+        valive_.resize(nv, 0);
+        faces_.resize(nf, dead_face());
+    }
     /// Unused pool slots become ordinary recyclable dead slots again.
     void end_parallel() { vertex_alloc_.end_parallel(), face_alloc_.end_parallel(); }
     /// Whether this worker's pool can serve an operation adding these many simplices.

@@ -116,6 +116,16 @@ public:
         tv_.resize(nt, {invalid_index, invalid_index, invalid_index, invalid_index});
         version_.resize(nt, 0);
     }
+    /// The same with a quota per pool: a deterministic round deals one pool per operation.
+    void begin_parallel(std::span<const index_t> vertex_quotas,
+                        std::span<const index_t> tet_quotas) {
+        const index_t nv = vertex_alloc_.begin_parallel(vertex_quotas, vertex_slots());
+        const index_t nt = tet_alloc_.begin_parallel(tet_quotas, tet_slots());
+        vt_.resize(nv);
+        valive_.resize(nv, 0);
+        tv_.resize(nt, {invalid_index, invalid_index, invalid_index, invalid_index});
+        version_.resize(nt, 0);
+    }
     /// Unused pool slots become ordinary recyclable dead slots again.
     void end_parallel() { vertex_alloc_.end_parallel(), tet_alloc_.end_parallel(); }
     /// Whether this worker's pool can serve an operation adding these many simplices.

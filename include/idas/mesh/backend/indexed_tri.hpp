@@ -112,6 +112,16 @@ public:
         fv_.resize(nf, {invalid_index, invalid_index, invalid_index});
         version_.resize(nf, 0);
     }
+    /// The same with a quota per pool: a deterministic round deals one pool per operation.
+    void begin_parallel(std::span<const index_t> vertex_quotas,
+                        std::span<const index_t> face_quotas) {
+        const index_t nv = vertex_alloc_.begin_parallel(vertex_quotas, vertex_slots());
+        const index_t nf = face_alloc_.begin_parallel(face_quotas, face_slots());
+        vf_.resize(nv);
+        valive_.resize(nv, 0);
+        fv_.resize(nf, {invalid_index, invalid_index, invalid_index});
+        version_.resize(nf, 0);
+    }
     /// Unused pool slots become ordinary recyclable dead slots again.
     void end_parallel() { vertex_alloc_.end_parallel(), face_alloc_.end_parallel(); }
     /// Whether this worker's pool can serve an operation adding these many simplices.

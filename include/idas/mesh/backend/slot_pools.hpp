@@ -22,50 +22,73 @@
 
 namespace idas::detail {
 
-/// Per-worker pools of one kind of slot (vertices, or top cells).
+/// Per-worker pools of one kind of slot (vertices, or top cells), kept in one array:
+/// pool w hands out slots_[next_[w]] up to slots_[end_[w]], in ascending order. One
+/// array whose capacity stays, so a deterministic run that deals pools every round
+/// allocates nothing once it has grown.
 class slot_pool {
 public:
-    /// Deals `wanted` slots to `workers` pools. Dead slots come first, taken from the back
-    /// of `free` (most recently freed); the rest are new slots numbered from `slots` up.
-    /// Returns the slot count the backend's arrays must be resized to.
+    /// Deals `wanted` slots to `workers` pools in contiguous blocks. Dead slots come
+    /// first, taken from the back of `free` (most recently freed); the rest are new slots
+    /// numbered from `slots` up. Returns the slot count the backend's arrays must be
+    /// resized to.
     index_t deal(unsigned workers, std::vector<index_t>& free, index_t slots, index_t wanted) {
-        pools_.assign(workers, {});
-        const std::size_t reused = std::min<std::size_t>(free.size(), wanted);
-        std::vector<index_t> dealt(free.end() - std::ptrdiff_t(reused), free.end());
-        // erase rather than resize: g++ 12 warns (-Wstringop-overflow) on a resize it
-        // cannot see only shrinks.
-        free.erase(free.end() - std::ptrdiff_t(reused), free.end());
-        for (index_t s = slots; dealt.size() < wanted; ++s) dealt.push_back(s);
-        std::sort(dealt.begin(), dealt.end());
-        // Contiguous blocks, pushed in reverse so each worker hands out ascending slots.
+        const index_t grown = fill(free, slots, wanted);
+        next_.resize(workers), end_.resize(workers);
         for (unsigned w = 0; w < workers; ++w) {
-            const std::size_t b = dealt.size() * w / workers, e = dealt.size() * (w + 1) / workers;
-            auto& p = pools_[w];
-            p.reserve(e - b);
-            for (std::size_t i = e; i-- > b;) p.push_back(dealt[i]);
+            next_[w] = slots_.size() * w / workers;
+            end_[w] = slots_.size() * (w + 1) / workers;
         }
-        return static_cast<index_t>(
-            std::max<std::size_t>(slots, dealt.empty() ? 0 : std::size_t(dealt.back()) + 1));
+        return grown;
     }
-    std::size_t available(unsigned worker) const noexcept { return pools_[worker].size(); }
+    /// The same with a quota per pool (pool w gets quotas[w] slots, in pool order).
+    index_t deal(std::span<const index_t> quotas, std::vector<index_t>& free, index_t slots) {
+        std::size_t wanted = 0;
+        for (index_t q : quotas) wanted += q;
+        const index_t grown = fill(free, slots, wanted);
+        next_.resize(quotas.size()), end_.resize(quotas.size());
+        std::size_t at = 0;
+        for (std::size_t w = 0; w < quotas.size(); ++w) {
+            next_[w] = at;
+            end_[w] = at += quotas[w];
+        }
+        return grown;
+    }
+    std::size_t available(unsigned worker) const noexcept { return end_[worker] - next_[worker]; }
     index_t take(unsigned worker) noexcept {
-        auto& p = pools_[worker];
-        assert(!p.empty());
-        const index_t s = p.back();
-        p.pop_back();
-        return s;
+        assert(next_[worker] < end_[worker]);
+        return slots_[next_[worker]++];
     }
     /// Undoing a take.
-    void give_back(unsigned worker, index_t s) { pools_[worker].push_back(s); }
-    /// Unused slots become the backend's dead slots again.
+    void give_back(unsigned worker, [[maybe_unused]] index_t s) noexcept {
+        assert(next_[worker] > 0 && slots_[next_[worker] - 1] == s);
+        --next_[worker];
+    }
+    /// Unused slots become the backend's dead slots again (each pool's in ascending order).
     void release(std::vector<index_t>& free) {
-        for (auto& p : pools_) free.insert(free.end(), p.rbegin(), p.rend());
-        pools_.clear();
+        for (std::size_t w = 0; w < next_.size(); ++w)
+            free.insert(free.end(), slots_.begin() + std::ptrdiff_t(next_[w]),
+                        slots_.begin() + std::ptrdiff_t(end_[w]));
+        slots_.clear(), next_.clear(), end_.clear();
     }
     friend bool operator==(const slot_pool&, const slot_pool&) = default;
 
 private:
-    std::vector<std::vector<index_t>> pools_;
+    /// slots_ = `wanted` slots, sorted: dead ones first, then new ones from `slots` up.
+    index_t fill(std::vector<index_t>& free, index_t slots, std::size_t wanted) {
+        const std::size_t reused = std::min<std::size_t>(free.size(), wanted);
+        slots_.assign(free.end() - std::ptrdiff_t(reused), free.end());
+        // erase rather than resize: g++ 12 warns (-Wstringop-overflow) on a resize it
+        // cannot see only shrinks.
+        free.erase(free.end() - std::ptrdiff_t(reused), free.end());
+        for (index_t s = slots; slots_.size() < wanted; ++s) slots_.push_back(s);
+        std::sort(slots_.begin(), slots_.end());
+        return static_cast<index_t>(
+            std::max<std::size_t>(slots, slots_.empty() ? 0 : std::size_t(slots_.back()) + 1));
+    }
+
+    std::vector<index_t> slots_;
+    std::vector<std::size_t> next_, end_;
 };
 
 /// How slot_allocator::acquire found a slot: what undoing it takes.
@@ -134,6 +157,12 @@ public:
         recycle_ = false;
         parallel_ = true;
         return pool_.deal(workers, free_, slots, extra);
+    }
+    /// The same with a quota per worker (a deterministic round: one pool per operation).
+    index_t begin_parallel(std::span<const index_t> quotas, index_t slots) {
+        recycle_ = false;
+        parallel_ = true;
+        return pool_.deal(quotas, free_, slots);
     }
     /// Unused pool slots become ordinary recyclable dead slots again.
     void end_parallel() {

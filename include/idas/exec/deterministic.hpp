@@ -1,0 +1,482 @@
+// Deterministic parallel execution: the same mesh, byte for byte, at any thread count.
+//
+// The run goes in rounds. Each round takes the best queued entries (the `round_size`
+// first in priority order), finds which of them are best among every candidate whose
+// lock region overlaps theirs, and runs those in parallel: their regions are disjoint,
+// so no claim can fail and none is needed. The others wait for the next round. Nothing
+// in a round depends on the thread count or on timing:
+//
+//  - the queue is a fixed number of shards (parts of a Morton order of the vertices),
+//    each a priority queue whose pops depend only on what was pushed (queue.hpp's
+//    `pops_before`), filled and drained one thread per shard;
+//  - the winners are found with one word per vertex holding the best candidate that
+//    touches it (a compare-and-swap minimum; the final words do not depend on the order);
+//  - new vertices and cells come from one slot pool per winner, dealt in candidate order
+//    (the backends' quota `begin_parallel`), so their numbers do not depend on the thread
+//    that made them;
+//  - a spec's goal (`remaining`) caps the winners of a round, best first, so a target
+//    face count is met exactly, as in a serial run.
+//
+// On one thread the rounds run the same way, so one thread and N give the same mesh.
+#pragma once
+
+#include <idas/exec/claim.hpp>
+#include <idas/exec/hooks.hpp>
+#include <idas/exec/lock.hpp>
+#include <idas/exec/queue.hpp>
+#include <idas/exec/report.hpp>
+#include <idas/exec/run.hpp>
+#include <idas/exec/workers.hpp>
+
+#include <algorithm>
+#include <atomic>
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <span>
+#include <type_traits>
+#include <vector>
+
+namespace idas::lock {
+
+/// The deterministic execution policy: rounds of non-overlapping best operations (see the
+/// file comment). Takes no locks, so it has no try_lock; its `execute` runs the rounds.
+struct deterministic_rounds {
+    static constexpr bool parallel = true;
+    static constexpr bool deterministic = true;
+    explicit deterministic_rounds(std::size_t = 0) noexcept {}
+
+    /// Shards of the queue: fixed, so the rounds do not depend on the thread count; more
+    /// than any machine's cores here, so every thread has shards to fill and drain.
+    static constexpr unsigned shards = 64;
+
+    template <class Run>
+    static void execute(Run& run);
+};
+
+} // namespace idas::lock
+
+namespace idas::detail {
+
+/// Runs fn(begin, end, thread) over [0, n) in chunks on `threads` threads.
+template <class Fn>
+void parallel_chunks(unsigned threads, std::size_t n, std::size_t chunk, Fn&& fn) {
+    if (n == 0) return;
+    const unsigned T =
+        static_cast<unsigned>(std::min<std::size_t>(threads, (n + chunk - 1) / chunk));
+    if (T <= 1) return fn(std::size_t{0}, n, 0u);
+    std::atomic<std::size_t> next{0};
+    run_workers(T, T, [&](unsigned t) {
+        for (std::size_t b; (b = next.fetch_add(chunk, std::memory_order_relaxed)) < n;)
+            fn(b, std::min(n, b + chunk), t);
+    });
+}
+
+template <class Run>
+class deterministic_engine {
+    using Mesh = typename Run::mesh_type;
+    using Spec = typename Run::spec_type;
+    using tuple = typename Run::tuple;
+    using entry = typename Run::entry;
+    using hooks = typename Run::hooks;
+    using ops = typename Run::ops;
+    using queue_policy = std::conditional_t<pops_in_priority_order<typename Run::queue_policy_type>,
+                                            typename Run::queue_policy_type, queue::binary_heap>;
+    using queue_type = typename queue_policy::template type<entry>;
+    static constexpr unsigned K = lock::deterministic_rounds::shards;
+    static_assert(!ops::adds_simplices || Mesh::parallel_growth,
+                  "idas: lock::deterministic_rounds runs operations that add simplices only on a "
+                  "backend that deals slot pools (begin_parallel)");
+
+    struct shard {
+        queue_type q;
+        std::vector<entry> popped;     // this round's pops, best first
+        std::vector<entry> reanchored; // vertex entries moved to a current tuple
+        std::size_t taken = 0;         // how many of them became candidates
+        std::size_t first = 0;         // index of its first candidate
+        std::size_t pushed_since_purge = 0;
+        run_report report;
+    };
+    /// A thread's context and its pushes, by shard.
+    struct alignas(64) thread_state {
+        op_context<Mesh> own_ctx;
+        op_context<Mesh>* ctx = &own_ctx;
+        std::vector<std::vector<entry>> out = std::vector<std::vector<entry>>(K);
+        run_report report;
+    };
+    /// What became of a candidate this round; all but `ran` go back to their shard.
+    enum class fate : std::uint8_t { waits, beaten, wins, ran };
+
+public:
+    explicit deterministic_engine(Run& run)
+        : run_(run)
+        , m_(run.mesh())
+        , spec_(run.spec())
+        , T_(std::max(1u, run.options().threads)) {
+        for (unsigned t = 0; t < T_; ++t) threads_.push_back(std::make_unique<thread_state>());
+        if (T_ == 1) threads_[0]->ctx = &thread_context<Mesh>(); // warm buffers
+    }
+
+    void run() {
+        // Dead slots are not recycled during the run, whatever the thread count: the free
+        // list would be shared state, and numbering must not depend on the threads.
+        m_.set_slot_recycling(false);
+        seed();
+        live_ = hooks::counts(m_);
+        while (!hooks::should_stop(spec_, live_) && fill_and_select() > 0) {
+            mark_regions();
+            if (pick_winners() == 0) continue; // cannot happen: the best candidate wins
+            execute_winners();
+            merge_round();
+        }
+        run_report& r = run_.report();
+        r.threads = T_;
+        for (auto& s : shards_) r += s.report;
+        for (auto& t : threads_) r += t->report;
+        r.faces = live_.faces, r.vertices = live_.vertices;
+        r.rounds += rounds_;
+        m_.set_slot_recycling(true);
+    }
+
+private:
+    // ------------------------------------------------------------ seeding ----
+
+    /// Initial entries go to the shard of their tuple's vertex (a Morton part).
+    void seed() {
+        const std::vector<std::uint32_t> part = Run::partition_type::assign(m_, K);
+        if constexpr (hooks::seeds_per_vertex && !initial_hook<Spec, Mesh>) {
+            std::vector<std::vector<index_t>> by_shard(K);
+            for (index_t v = 0; v < m_.vertex_slots(); ++v)
+                if (m_.vertex_alive(v)) by_shard[part[v]].push_back(v);
+            each_shard([&](unsigned s, unsigned) {
+                auto& sh = shards_[s];
+                auto push = [&](auto op, const tuple& t) {
+                    sh.q.push(hooks::template make_entry<decltype(op)>(spec_, m_, t));
+                    ++sh.report.pushed;
+                };
+                for (index_t v : by_shard[s]) hooks::initial_at(spec_, m_, v, push);
+            });
+        } else {
+            std::vector<std::vector<entry>> by_shard(K);
+            auto push = [&](auto op, const tuple& t) {
+                by_shard[part[t.vid]].push_back({0.0, t, ops::template id_of<decltype(op)>, 0});
+            };
+            hooks::initial(spec_, m_, push);
+            each_shard([&](unsigned s, unsigned) {
+                auto& sh = shards_[s];
+                sh.q.reserve(by_shard[s].size() * 2 + 64);
+                for (entry e : by_shard[s]) {
+                    ops::dispatch(e.kind, [&](auto op) {
+                        e.priority = hooks::template priority<decltype(op)>(spec_, m_, e.tuple);
+                    });
+                    sh.q.push(e);
+                }
+                sh.report.pushed += by_shard[s].size();
+            });
+        }
+    }
+
+    // ------------------------------------------------------------- rounds ----
+
+    /// Every shard takes back what waited and what the last round pushed, then pops its
+    /// best current entries; the round's candidates are the best `round_size` of all of
+    /// them that no unpopped entry beats. Returns how many there are.
+    std::size_t fill_and_select() {
+        const std::size_t B = round_size();
+        const std::size_t per_shard = (3 * B / 2 + K - 1) / K;
+        each_shard([&](unsigned s, unsigned) {
+            shard& sh = shards_[s];
+            for (std::size_t i = sh.first; i < sh.first + sh.taken; ++i)
+                if (fate_[i] != fate::ran) sh.q.push(cand_[i]), ++sh.report.pushed;
+            for (std::size_t i = sh.taken; i < sh.popped.size(); ++i)
+                sh.q.push(sh.popped[i]), ++sh.report.pushed;
+            for (auto& t : threads_) {
+                auto& out = t->out[s];
+                for (const entry& e : out) sh.q.push(e);
+                sh.report.pushed += out.size();
+                sh.pushed_since_purge += out.size();
+                out.clear();
+            }
+            purge_if_bloated(sh);
+            sh.popped.clear();
+            entry e;
+            while (sh.popped.size() < per_shard && sh.q.pop(e)) {
+                ++sh.report.popped;
+                if (!m_.is_valid(e.tuple)) {
+                    // A vertex entry follows its vertex into a current tuple; that changes
+                    // its tie key, so it goes back to be popped in its new place (the
+                    // popped list must stay in pop order).
+                    if (reanchor(e)) {
+                        sh.reanchored.push_back(e);
+                    } else {
+                        ++sh.report.stale;
+                    }
+                    continue;
+                }
+                bool wanted = true;
+                ops::dispatch(e.kind, [&](auto op) {
+                    wanted = hooks::template should_process<decltype(op)>(spec_, m_, e);
+                });
+                if (!wanted) {
+                    ++sh.report.skipped;
+                    continue;
+                }
+                sh.popped.push_back(e);
+            }
+            for (const entry& x : sh.reanchored) sh.q.push(x); // after the pops, not among them
+            sh.report.pushed += sh.reanchored.size();
+            sh.reanchored.clear();
+        });
+
+        // A shard that could pop more bounds what is known to be best: nothing after its
+        // last pop may be taken. Then at most B, best first.
+        const entry* bound = nullptr;
+        for (const shard& sh : shards_)
+            if (sh.popped.size() == per_shard && (!bound || pops_before(sh.popped.back(), *bound)))
+                bound = &sh.popped.back();
+        keys_.clear();
+        for (const shard& sh : shards_)
+            for (const entry& e : sh.popped) {
+                if (bound && pops_before(*bound, e)) break;
+                keys_.push_back(e);
+            }
+        if (keys_.size() > B) {
+            std::nth_element(keys_.begin(), keys_.begin() + std::ptrdiff_t(B - 1), keys_.end(),
+                             [](const entry& a, const entry& b) { return pops_before(a, b); });
+            last_ = keys_[B - 1];
+            bound = &last_;
+        }
+        cand_.clear();
+        cand_shard_.clear();
+        for (unsigned s = 0; s < K; ++s) {
+            shard& sh = shards_[s];
+            sh.first = cand_.size();
+            std::size_t n = 0;
+            while (n < sh.popped.size() && !(bound && pops_before(*bound, sh.popped[n]))) ++n;
+            sh.taken = n;
+            cand_.insert(cand_.end(), sh.popped.begin(), sh.popped.begin() + std::ptrdiff_t(n));
+            cand_shard_.insert(cand_shard_.end(), n, static_cast<std::uint8_t>(s));
+        }
+        fate_.assign(cand_.size(), fate::waits);
+        return cand_.size();
+    }
+
+    /// Every candidate writes itself into the mark of each vertex of its region unless a
+    /// better candidate is there: afterwards each mark holds the best candidate touching it.
+    void mark_regions() {
+        ++rounds_;
+        const index_t n = m_.vertex_slots();
+        if (n > mark_size_) {
+            mark_size_ = std::max<std::size_t>(n, mark_size_ * 3 / 2);
+            marks_ = std::make_unique<std::atomic<std::uint64_t>[]>(mark_size_);
+            for (std::size_t v = 0; v < mark_size_; ++v)
+                marks_[v].store(0, std::memory_order_relaxed);
+        }
+        const std::uint64_t stamp = std::uint64_t(rounds_) << 32;
+        parallel_chunks(T_, cand_.size(), 256, [&](std::size_t b, std::size_t e, unsigned) {
+            for (std::size_t i = b; i < e; ++i) {
+                const std::uint64_t mine = stamp | i;
+                bool beaten = false;
+                auto mark = [&](index_t v) {
+                    std::uint64_t seen = marks_[v].load(std::memory_order_relaxed);
+                    while ((seen >> 32) != rounds_ || better(i, seen & 0xffffffffu))
+                        if (marks_[v].compare_exchange_weak(seen, mine, std::memory_order_relaxed))
+                            return true;
+                    beaten |= seen != mine;
+                    // Mark the whole region even when beaten: which marks a candidate
+                    // leaves must not depend on when the better one came by.
+                    return true;
+                };
+                walk_region(i, mark);
+                if (beaten) fate_[i] = fate::beaten; // no need to look again
+            }
+        });
+    }
+
+    /// A candidate wins if it holds the mark of every vertex of its region: it is better
+    /// than every candidate it overlaps. The winners' regions are disjoint. A spec's goal
+    /// caps them, best first. Returns how many won.
+    std::size_t pick_winners() {
+        const std::uint64_t stamp = std::uint64_t(rounds_) << 32;
+        parallel_chunks(T_, cand_.size(), 256, [&](std::size_t b, std::size_t e, unsigned) {
+            for (std::size_t i = b; i < e; ++i) {
+                const std::uint64_t mine = stamp | i;
+                auto held = [&](index_t v) {
+                    return marks_[v].load(std::memory_order_relaxed) == mine;
+                };
+                if (fate_[i] == fate::waits && walk_region(i, held)) fate_[i] = fate::wins;
+            }
+        });
+        winners_.clear();
+        for (std::size_t i = 0; i < cand_.size(); ++i)
+            if (fate_[i] == fate::wins) winners_.push_back(i);
+        if constexpr (remaining_hook<Spec>) {
+            const std::int64_t goal = std::max<std::int64_t>(1, spec_.remaining(live_));
+            if (std::int64_t(winners_.size()) > goal) {
+                const auto cut = winners_.begin() + std::ptrdiff_t(goal);
+                std::nth_element(winners_.begin(), cut - 1, winners_.end(),
+                                 [&](std::size_t a, std::size_t b) { return better(a, b); });
+                for (auto it = cut; it != winners_.end(); ++it) fate_[*it] = fate::waits;
+                winners_.erase(cut, winners_.end());
+                std::sort(winners_.begin(), winners_.end());
+            }
+        }
+        return winners_.size();
+    }
+
+    /// Runs the winners in parallel, each taking new slots from its own pool.
+    void execute_winners() {
+        const std::size_t W = winners_.size();
+        if constexpr (ops::adds_simplices) {
+            vertex_quota_.resize(W), cell_quota_.resize(W);
+            for (std::size_t w = 0; w < W; ++w)
+                ops::dispatch(cand_[winners_[w]].kind, [&](auto op) {
+                    vertex_quota_[w] = decltype(op)::adds_vertices;
+                    cell_quota_[w] = decltype(op)::adds_faces;
+                });
+            m_.begin_parallel(std::span<const index_t>(vertex_quota_),
+                              std::span<const index_t>(cell_quota_));
+        }
+        face_delta_.assign(W, 0), vertex_delta_.assign(W, 0);
+        parallel_chunks(T_, W, 16, [&](std::size_t b, std::size_t e, unsigned t) {
+            thread_state& me = *threads_[t];
+            op_context<Mesh>& ctx = *me.ctx;
+            ctx.worker = t;
+            for (std::size_t w = b; w < e; ++w) {
+                detail::worker_index = static_cast<unsigned>(w); // the winner's slot pool
+                const std::size_t i = winners_[w];
+                entry& en = cand_[i];
+                auto& out = me.out[cand_shard_[i]];
+                fate_[i] = fate::ran;
+                const std::int64_t fd = ctx.face_delta, vd = ctx.vertex_delta;
+                ops::dispatch(en.kind, [&](auto op) {
+                    using Op = decltype(op);
+                    ++me.report.attempted;
+                    auto r = apply(Op{}, m_, en.tuple, spec_, ctx);
+                    if (!r) {
+                        ++me.report.refused;
+                        hooks::template refused<Op>(spec_, m_, en.tuple);
+                        return;
+                    }
+                    ++me.report.succeeded;
+                    auto push = [&](auto nop, const tuple& nt) {
+                        out.push_back(hooks::template make_entry<decltype(nop)>(spec_, m_, nt));
+                    };
+                    hooks::template renew<Op>(spec_, m_, *r, push);
+                });
+                face_delta_[w] = ctx.face_delta - fd, vertex_delta_[w] = ctx.vertex_delta - vd;
+            }
+        });
+        detail::worker_index = 0;
+        if constexpr (ops::adds_simplices) {
+            m_.end_parallel();
+            m_.set_slot_recycling(false); // end_parallel turned it on
+        }
+    }
+
+    /// The live counts, as a serial run would have them after the round's successes.
+    void merge_round() {
+        for (std::size_t w = 0; w < winners_.size(); ++w)
+            live_.faces += face_delta_[w], live_.vertices += vertex_delta_[w];
+        std::uint64_t successes = 0;
+        for (auto& t : threads_) successes += t->report.succeeded;
+        live_.successes = successes;
+    }
+
+    // ------------------------------------------------------------ helpers ----
+
+    /// Candidates per round: a fixed share of the mesh, never a function of the threads.
+    std::size_t round_size() const {
+        if (run_.options().round_size > 0) return run_.options().round_size;
+        const std::size_t cells = static_cast<std::size_t>(std::max<std::int64_t>(live_.faces, 0));
+        return std::clamp<std::size_t>(cells / 64, 1024, 65536);
+    }
+
+    /// Candidate a is better than candidate b: pops first, or the same entry queued
+    /// earlier in candidate order.
+    bool better(std::size_t a, std::size_t b) const noexcept {
+        if (a == b) return false;
+        if (pops_before(cand_[a], cand_[b])) return true;
+        if (pops_before(cand_[b], cand_[a])) return false;
+        return a < b;
+    }
+
+    /// Walks candidate i's lock region with `take` (claim.hpp), stopping at its first
+    /// false. The mesh does not change while regions are walked.
+    template <class Take>
+    bool walk_region(std::size_t i, Take& take) {
+        bool ok = true;
+        tuple t = cand_[i].tuple;
+        ops::dispatch(cand_[i].kind, [&](auto op) {
+            ok = claim_footprint<decltype(op)>(spec_, m_, t, take) == claim_result::ok;
+        });
+        return ok;
+    }
+
+    /// Moves a vertex entry whose tuple went stale to a current tuple of its vertex; false
+    /// if the entry is not a vertex entry or its vertex is gone.
+    bool reanchor(entry& e) const noexcept {
+        if (!ops::acts_on_vertex(e.kind) || e.tuple.vid >= m_.vertex_slots() ||
+            !m_.vertex_alive(e.tuple.vid))
+            return false;
+        e.tuple = m_.tuple_from_vertex(e.tuple.vid);
+        return m_.is_valid(e.tuple);
+    }
+
+    /// As the serial executor: sweep stale entries out once pushes reach half the queue.
+    void purge_if_bloated(shard& sh) {
+        if (sh.pushed_since_purge <= sh.q.size() / 2 + 4096) return;
+        const std::size_t before = sh.q.size();
+        sh.q.erase_if([&](const entry& x) {
+            if (m_.is_valid(x.tuple)) return false;
+            return !(ops::acts_on_vertex(x.kind) && x.tuple.vid < m_.vertex_slots() &&
+                     m_.vertex_alive(x.tuple.vid));
+        });
+        sh.report.purged += before - sh.q.size();
+        sh.pushed_since_purge = 0;
+    }
+
+    /// fn(shard, thread) for every shard, one thread per shard at a time.
+    template <class Fn>
+    void each_shard(Fn&& fn) {
+        parallel_chunks(T_, K, 1, [&](std::size_t b, std::size_t e, unsigned t) {
+            for (std::size_t s = b; s < e; ++s) fn(unsigned(s), t);
+        });
+    }
+
+    Run& run_;
+    Mesh& m_;
+    Spec& spec_;
+    unsigned T_;
+    std::vector<std::unique_ptr<thread_state>> threads_;
+    std::vector<shard> shards_ = std::vector<shard>(K);
+    progress live_;
+    std::uint32_t rounds_ = 0;
+    std::vector<entry> cand_, keys_;
+    entry last_{};
+    std::vector<std::uint8_t> cand_shard_;
+    std::vector<fate> fate_;
+    std::vector<std::size_t> winners_;
+    std::vector<index_t> vertex_quota_, cell_quota_;
+    std::vector<std::int64_t> face_delta_, vertex_delta_;
+    std::unique_ptr<std::atomic<std::uint64_t>[]> marks_;
+    std::size_t mark_size_ = 0;
+};
+
+} // namespace idas::detail
+
+namespace idas::lock {
+
+template <class Run>
+void deterministic_rounds::execute(Run& run) {
+    detail::deterministic_engine<Run> engine(run);
+    engine.run();
+}
+
+} // namespace idas::lock
+
+namespace idas {
+static_assert(lock_policy<lock::deterministic_rounds>);
+static_assert(deterministic_policy<lock::deterministic_rounds>);
+static_assert(!claiming_lock_policy<lock::deterministic_rounds>); // it claims nothing
+} // namespace idas

@@ -1,0 +1,194 @@
+// lock::deterministic_rounds: the same output file, byte for byte, at 1, 2, 4 and 8
+// threads (8 on fewer cores: the rounds must not depend on timing), and the same report;
+// the target face count met exactly; the mesh valid; the result near the serial one.
+#include "../test_support.hpp"
+
+#include <idas/algorithms/isotropic_remeshing.hpp>
+#include <idas/algorithms/qslim.hpp>
+#include <idas/algorithms/shortest_edge_collapse.hpp>
+#include <idas/core/aabb_tree.hpp>
+#include <idas/mesh/surface_distance.hpp>
+
+#include <fstream>
+#include <iterator>
+#include <sstream>
+#include <string>
+
+#if defined(IDAS_HAS_CGAL)
+#include "../harmonic_support.hpp"
+
+#include <idas/io/msh.hpp>
+#include <idas/io/points.hpp>
+#endif
+
+using namespace idas;
+using namespace idas::algorithms;
+
+namespace {
+
+using mesh_t = tri_mesh<>;
+using det = lock::deterministic_rounds;
+
+std::string file_bytes(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+/// The mesh as the tool writes it (binary PLY), as bytes.
+template <class Mesh>
+std::string written(const Mesh& m, const std::string& name) {
+    io::surface s;
+    std::tie(s.vertices, s.faces) = m.to_arrays();
+    const std::string path = test::tmp(name + ".ply");
+    io::write_surface(path, s);
+    return file_bytes(path);
+}
+
+/// What a report says that must not depend on the thread count.
+std::string counts(const run_report& r) {
+    std::ostringstream os;
+    os << r.pushed << ' ' << r.popped << ' ' << r.purged << ' ' << r.stale << ' ' << r.skipped
+       << ' ' << r.attempted << ' ' << r.succeeded << ' ' << r.refused << ' ' << r.rounds << ' '
+       << r.faces << ' ' << r.vertices;
+    return os.str();
+}
+
+template <class Algorithm, class Spec>
+void check_decimation(const char* file, double ratio) {
+    CAPTURE(file);
+    std::string reference, reference_report;
+    for (const unsigned threads : {1u, 2u, 4u, 8u}) {
+        CAPTURE(threads);
+        auto m = test::load<mesh_t>(file);
+        const auto before = test::topology_of(m);
+        Spec spec;
+        spec.target_faces = static_cast<std::int64_t>(double(m.n_faces()) * ratio);
+        const run_report r = Algorithm::run(m, spec, {.threads = threads});
+        // Exact, as in a serial run: the last collapse removes one or two faces.
+        CHECK(std::int64_t(m.n_faces()) <= spec.target_faces);
+        CHECK(std::int64_t(m.n_faces()) >= spec.target_faces - 1);
+        CHECK(r.rounds > 1);
+        CHECK(r.threads == threads);
+        const auto e = find_inconsistency(m);
+        CHECK_MESSAGE(!e, *e);
+        CHECK(test::topology_of(m) == before);
+        const std::string bytes = written(m, "deterministic");
+        if (threads == 1) {
+            reference = bytes, reference_report = counts(r);
+        } else {
+            CHECK(bytes == reference); // byte for byte
+            CHECK(counts(r) == reference_report);
+        }
+    }
+}
+
+} // namespace
+
+TEST_CASE("deterministic rounds: QSlim gives the same file at 1, 2, 4 and 8 threads") {
+    check_decimation<qslim<mesh_t, det>, qslim_spec>("bunny.off", 0.1);
+    check_decimation<qslim<mesh_t, det>, qslim_spec>("blub.obj", 0.05);
+    check_decimation<qslim<mesh_t, det>, qslim_spec>("100071_sf.obj", 0.1);
+}
+
+TEST_CASE("deterministic rounds: shortest edge collapse gives the same file at any thread count") {
+    using sec = shortest_edge_collapse<true, mesh_t, det>;
+    check_decimation<sec, shortest_edge_collapse_spec<true>>("bunny.off", 0.1);
+    check_decimation<sec, shortest_edge_collapse_spec<true>>("blub.obj", 0.05);
+    check_decimation<sec, shortest_edge_collapse_spec<true>>("100071_sf.obj", 0.1);
+}
+
+TEST_CASE("deterministic rounds: the corner-table backend is deterministic too") {
+    using ct = tri_mesh<backend::corner_table_tri>;
+    std::string reference;
+    for (const unsigned threads : {1u, 3u}) {
+        auto m = test::load<ct>("blub.obj");
+        qslim_spec spec;
+        spec.target_faces = std::int64_t(m.n_faces()) / 10;
+        qslim<ct, det>::run(m, spec, {.threads = threads});
+        const std::string bytes = written(m, "deterministic_ct");
+        if (threads == 1)
+            reference = bytes;
+        else
+            CHECK(bytes == reference);
+    }
+}
+
+TEST_CASE("deterministic rounds: QSlim stays near the serial executor's result") {
+    // Rounds run non-overlapping collapses of the best entries together, not one at a time,
+    // so the order differs a little from a serial run; the error it adds stays small.
+    auto serial = test::load<mesh_t>("blub.obj"), rounds = serial;
+    const auto input = serial;
+    qslim_spec s1, s2;
+    s1.target_faces = s2.target_faces = std::int64_t(serial.n_faces()) / 20;
+    qslim<mesh_t, lock::none>::run(serial, s1);
+    qslim<mesh_t, det>::run(rounds, s2, {.threads = 2});
+    auto error = [&](const mesh_t& m) {
+        const auto [V, F] = m.to_arrays();
+        const auto [VI, FI] = input.to_arrays();
+        return hausdorff_symmetric(V, F, VI, FI, 16);
+    };
+    const double e_serial = error(serial), e_rounds = error(rounds);
+    CAPTURE(e_serial);
+    CAPTURE(e_rounds);
+    CHECK(e_rounds < 1.25 * e_serial);
+}
+
+TEST_CASE("deterministic rounds: isotropic remeshing gives the same file at any thread count") {
+    for (const char* file : {"bunny.off", "blub.obj", "100071_sf.obj"}) {
+        CAPTURE(file);
+        std::string reference;
+        for (const unsigned threads : {1u, 2u, 4u, 8u}) {
+            CAPTURE(threads);
+            auto m = test::load<mesh_t>(file);
+            const auto before = test::topology_of(m);
+            const auto [V, F] = m.to_arrays();
+            remeshing_options o;
+            o.target_length = 0.02 * triangle_aabb_tree(V, F).diagonal();
+            o.iterations = 2;
+            const auto r = isotropic_remeshing<mesh_t, det>::run(m, o, {.threads = threads});
+            CHECK(r.splits + r.collapses > 0);
+            if (threads == 1) {
+                // Every vertex is smoothed once per pass, as in a serial run (a vertex entry
+                // re-anchored out of pop order once ended the smoothing phase early).
+                auto s = test::load<mesh_t>(file);
+                const auto rs = isotropic_remeshing<mesh_t, lock::none>::run(s, o);
+                CHECK(double(r.smooths) > 0.95 * double(rs.smooths));
+            }
+            const auto e = find_inconsistency(m);
+            CHECK_MESSAGE(!e, *e);
+            CHECK(test::topology_of(m) == before);
+            const std::string bytes = written(m, "deterministic_remesh");
+            if (threads == 1)
+                reference = bytes;
+            else
+                CHECK(bytes == reference);
+        }
+    }
+}
+
+#if defined(IDAS_HAS_CGAL)
+TEST_CASE("deterministic rounds: harmonic triangulation of 10k points, the same MSH file") {
+    const auto points = io::gaussian_points(10000, 7);
+    for (const auto mode : {harmonic_mode::reduced, harmonic_mode::complete}) {
+        CAPTURE(int(mode));
+        std::string reference;
+        for (const unsigned threads : {1u, 2u, 4u, 8u}) {
+            CAPTURE(threads);
+            auto m = test::delaunay_mesh(points);
+            harmonic_options o;
+            o.mode = mode;
+            o.exec.threads = threads;
+            test::check_run<harmonic_triangulation<tet_mesh<>, det>>(m, o);
+            io::volume v;
+            std::tie(v.vertices, v.tets) = m.to_arrays();
+            const std::string path = test::tmp("deterministic_harmonic.msh");
+            io::write_msh(path, v);
+            const std::string bytes = file_bytes(path);
+            if (threads == 1)
+                reference = bytes;
+            else
+                CHECK(bytes == reference);
+        }
+    }
+}
+#endif
