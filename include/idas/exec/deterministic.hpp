@@ -31,7 +31,6 @@
 #include <algorithm>
 #include <atomic>
 #include <cstdint>
-#include <limits>
 #include <memory>
 #include <span>
 #include <type_traits>
@@ -416,9 +415,7 @@ private:
     /// Moves a vertex entry whose tuple went stale to a current tuple of its vertex; false
     /// if the entry is not a vertex entry or its vertex is gone.
     bool reanchor(entry& e) const noexcept {
-        if (!ops::acts_on_vertex(e.kind) || e.tuple.vid >= m_.vertex_slots() ||
-            !m_.vertex_alive(e.tuple.vid))
-            return false;
+        if (!run_.still_wanted(e)) return false; // (its tuple is stale, so it follows a vertex)
         e.tuple = m_.tuple_from_vertex(e.tuple.vid);
         return m_.is_valid(e.tuple);
     }
@@ -427,11 +424,7 @@ private:
     void purge_if_bloated(shard& sh) {
         if (sh.pushed_since_purge <= sh.q.size() / 2 + 4096) return;
         const std::size_t before = sh.q.size();
-        sh.q.erase_if([&](const entry& x) {
-            if (m_.is_valid(x.tuple)) return false;
-            return !(ops::acts_on_vertex(x.kind) && x.tuple.vid < m_.vertex_slots() &&
-                     m_.vertex_alive(x.tuple.vid));
-        });
+        sh.q.erase_if([&](const entry& x) { return !run_.still_wanted(x); });
         sh.report.purged += before - sh.q.size();
         sh.pushed_since_purge = 0;
     }

@@ -218,6 +218,15 @@ public:
         static constexpr void release() noexcept {}
     };
 
+    /// A vertex operation is about its vertex, not the cell its tuple was made in: moving
+    /// a neighbour renews that cell, which must not cancel the entry (a smoothing pass
+    /// would skip two thirds of the vertices). Other entries go stale with their cell.
+    bool still_wanted(const entry& e) const noexcept {
+        if (m_.is_valid(e.tuple)) return true;
+        return ops::acts_on_vertex(e.kind) && e.tuple.vid < m_.vertex_slots() &&
+               m_.vertex_alive(e.tuple.vid);
+    }
+
 private:
     struct no_action {
         template <class Op, class R>
@@ -297,15 +306,6 @@ private:
             me.report.purged += before - me.q.size();
             me.pushed_since_purge = 0;
         }
-    }
-
-    /// A vertex operation is about its vertex, not the cell its tuple was made in: moving
-    /// a neighbour renews that cell, which must not cancel the entry (a smoothing pass
-    /// would skip two thirds of the vertices). Other entries go stale with their cell.
-    bool still_wanted(const entry& e) const noexcept {
-        if (m_.is_valid(e.tuple)) return true;
-        return ops::acts_on_vertex(e.kind) && e.tuple.vid < m_.vertex_slots() &&
-               m_.vertex_alive(e.tuple.vid);
     }
 
     void start_workers() {

@@ -371,18 +371,14 @@ public:
     void begin_parallel(unsigned workers, index_t extra_vertices, index_t extra_faces) {
         const index_t nv = vertex_alloc_.begin_parallel(workers, vertex_slots(), extra_vertices);
         const index_t nf = face_alloc_.begin_parallel(workers, face_slots(), extra_faces);
-        anchor_.resize(nv, invalid_index);
-        valive_.resize(nv, 0);
-        faces_.resize(nf, dead_face());
+        grow_to(nv, nf);
     }
     /// The same with a quota per pool: a deterministic round deals one pool per operation.
     void begin_parallel(std::span<const index_t> vertex_quotas,
                         std::span<const index_t> face_quotas) {
         const index_t nv = vertex_alloc_.begin_parallel(vertex_quotas, vertex_slots());
         const index_t nf = face_alloc_.begin_parallel(face_quotas, face_slots());
-        anchor_.resize(nv, invalid_index);
-        valive_.resize(nv, 0);
-        faces_.resize(nf, dead_face());
+        grow_to(nv, nf);
     }
     /// Unused pool slots become ordinary recyclable dead slots again.
     void end_parallel() { vertex_alloc_.end_parallel(), face_alloc_.end_parallel(); }
@@ -539,6 +535,13 @@ public:
     }
 
 private:
+    /// The arrays grow to the slot counts the pools were dealt from.
+    void grow_to(index_t nv, index_t nf) {
+        anchor_.resize(nv, invalid_index);
+        valive_.resize(nv, 0);
+        faces_.resize(nf, dead_face());
+    }
+
     static constexpr face_record dead_face() noexcept {
         return {{invalid_index, invalid_index, invalid_index},
                 0,

@@ -111,20 +111,14 @@ public:
     void begin_parallel(unsigned workers, index_t extra_vertices, index_t extra_tets) {
         const index_t nv = vertex_alloc_.begin_parallel(workers, vertex_slots(), extra_vertices);
         const index_t nt = tet_alloc_.begin_parallel(workers, tet_slots(), extra_tets);
-        vt_.resize(nv);
-        valive_.resize(nv, 0);
-        tv_.resize(nt, {invalid_index, invalid_index, invalid_index, invalid_index});
-        version_.resize(nt, 0);
+        grow_to(nv, nt);
     }
     /// The same with a quota per pool: a deterministic round deals one pool per operation.
     void begin_parallel(std::span<const index_t> vertex_quotas,
                         std::span<const index_t> tet_quotas) {
         const index_t nv = vertex_alloc_.begin_parallel(vertex_quotas, vertex_slots());
         const index_t nt = tet_alloc_.begin_parallel(tet_quotas, tet_slots());
-        vt_.resize(nv);
-        valive_.resize(nv, 0);
-        tv_.resize(nt, {invalid_index, invalid_index, invalid_index, invalid_index});
-        version_.resize(nt, 0);
+        grow_to(nv, nt);
     }
     /// Unused pool slots become ordinary recyclable dead slots again.
     void end_parallel() { vertex_alloc_.end_parallel(), tet_alloc_.end_parallel(); }
@@ -233,6 +227,14 @@ public:
     }
 
 private:
+    /// The arrays grow to the slot counts the pools were dealt from.
+    void grow_to(index_t nv, index_t nt) {
+        vt_.resize(nv);
+        valive_.resize(nv, 0);
+        tv_.resize(nt, {invalid_index, invalid_index, invalid_index, invalid_index});
+        version_.resize(nt, 0);
+    }
+
     static bool contains(const tet_indices& t, index_t v) noexcept {
         return t[0] == v || t[1] == v || t[2] == v || t[3] == v;
     }

@@ -107,20 +107,14 @@ public:
     void begin_parallel(unsigned workers, index_t extra_vertices, index_t extra_faces) {
         const index_t nv = vertex_alloc_.begin_parallel(workers, vertex_slots(), extra_vertices);
         const index_t nf = face_alloc_.begin_parallel(workers, face_slots(), extra_faces);
-        vf_.resize(nv);
-        valive_.resize(nv, 0);
-        fv_.resize(nf, {invalid_index, invalid_index, invalid_index});
-        version_.resize(nf, 0);
+        grow_to(nv, nf);
     }
     /// The same with a quota per pool: a deterministic round deals one pool per operation.
     void begin_parallel(std::span<const index_t> vertex_quotas,
                         std::span<const index_t> face_quotas) {
         const index_t nv = vertex_alloc_.begin_parallel(vertex_quotas, vertex_slots());
         const index_t nf = face_alloc_.begin_parallel(face_quotas, face_slots());
-        vf_.resize(nv);
-        valive_.resize(nv, 0);
-        fv_.resize(nf, {invalid_index, invalid_index, invalid_index});
-        version_.resize(nf, 0);
+        grow_to(nv, nf);
     }
     /// Unused pool slots become ordinary recyclable dead slots again.
     void end_parallel() { vertex_alloc_.end_parallel(), face_alloc_.end_parallel(); }
@@ -230,6 +224,14 @@ public:
     }
 
 private:
+    /// The arrays grow to the slot counts the pools were dealt from.
+    void grow_to(index_t nv, index_t nf) {
+        vf_.resize(nv);
+        valive_.resize(nv, 0);
+        fv_.resize(nf, {invalid_index, invalid_index, invalid_index});
+        version_.resize(nf, 0);
+    }
+
     static bool contains(const tri_indices& f, index_t v) noexcept {
         return f[0] == v || f[1] == v || f[2] == v;
     }
