@@ -13,6 +13,11 @@
 //   idas-sec-det, idas-qslim-det
 //                   the same two on lock::deterministic_rounds (the same output at every
 //                   thread count) instead of vertex_try_lock
+//   idas-sec-attr, idas-qslim-attr
+//                   the same two carrying attributes (algorithms/attribute_transfer.hpp):
+//                   an 8-bit colour and a float normal per vertex and a seamless texture
+//                   coordinate per corner (8 components per vertex), made up at run time
+//                   from the positions; attaching them is timed, exporting them is not
 //   cgal-gh         CGAL GarlandHeckbert_plane_policies (classic Garland-Heckbert plane
 //                   quadrics, optimal placement), filtered by Bounded_normal_change_filter
 //   openmesh-quadric OpenMesh DecimaterT with ModQuadricT (priority) and ModNormalFlippingT
@@ -103,16 +108,66 @@ struct run_result {
 
 using idas_mesh = idas::tri_mesh<>;
 
+/// The attributes of the -attr peers: colour (uint8) and normal (float) per vertex, a
+/// texture coordinate per corner (a spherical projection, the same in every face of a
+/// vertex: no seams, so nothing is constrained and the work is the same as without).
+surface with_attributes(const surface& in) {
+    using idas::io::attribute_domain;
+    using idas::io::scalar_type;
+    surface s = in;
+    vec3 lo = in.vertices[0], hi = lo, centre{};
+    for (const vec3& p : in.vertices)
+        for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], p[k]), hi[k] = std::max(hi[k], p[k]);
+    centre = (lo + hi) * 0.5;
+    std::vector<vec3> normal(in.vertices.size());
+    for (const auto& f : in.faces) {
+        const vec3 n = idas::cross(in.vertices[f[1]] - in.vertices[f[0]],
+                                   in.vertices[f[2]] - in.vertices[f[0]]);
+        for (idas::index_t v : f) normal[v] += n;
+    }
+    idas::io::attribute_column colour{"color", attribute_domain::vertex, scalar_type::uint8, 3, {},
+                                      {}},
+        normals{"normal", attribute_domain::vertex, scalar_type::float32, 3, {}, {}},
+        uv{"uv", attribute_domain::corner, scalar_type::float32, 2, {}, {}};
+    for (std::size_t v = 0; v < in.vertices.size(); ++v) {
+        const vec3& p = in.vertices[v];
+        const double l = idas::norm(normal[v]);
+        for (int k = 0; k < 3; ++k) {
+            colour.values.push_back(std::round(255 * (p[k] - lo[k]) / (hi[k] - lo[k])));
+            normals.values.push_back(double(float(l > 0 ? normal[v][k] / l : 0)));
+        }
+    }
+    for (const auto& f : in.faces)
+        for (idas::index_t v : f) {
+            const vec3 d = in.vertices[v] - centre;
+            uv.values.push_back(double(float(std::atan2(d.y, d.x))));
+            uv.values.push_back(double(float(d.z / (hi.z - lo.z))));
+        }
+    s.attributes = {std::move(colour), std::move(normals), std::move(uv)};
+    return s;
+}
+
 template <class Algorithm, class Spec>
-run_result run_idas(const surface& in, std::int64_t target, unsigned threads) {
+run_result run_idas(const surface& in, std::int64_t target, unsigned threads,
+                    bool attributes = false) {
     idas_mesh m(in.vertices, in.faces);
     Spec spec;
     spec.target_faces = target;
     idas::run_report r;
     run_result out;
+    idas::algorithms::attribute_transfer transfer;
+    const surface carried = attributes ? with_attributes(in) : surface{};
     // Includes the spec's one-off set-up (QSlim's quadrics) and filling the queue.
-    out.seconds = timed([&] { r = Algorithm::run(m, spec, {.threads = threads}); });
+    out.seconds = timed([&] {
+        if (attributes) transfer.attach(m, carried), spec.transfer = &transfer;
+        r = Algorithm::run(m, spec, {.threads = threads});
+    });
     std::tie(out.output.vertices, out.output.faces) = m.to_arrays();
+    if (attributes) {
+        out.output.attributes = transfer.exported(m);
+        out.extra += ",\"attribute_components\":" + std::to_string(3 + 3 + 2) +
+                     ",\"constrained_vertices\":" + std::to_string(transfer.constrained_count(m));
+    }
     auto member = [&](const char* name, std::uint64_t value) {
         out.extra += std::string(",\"") + name + "\":" + std::to_string(value);
     };
@@ -258,7 +313,7 @@ struct options {
     std::fprintf(stderr,
                  "bench_decimation: %s\n"
                  "usage: bench_decimation --peer idas-sec|idas-sec-det|cgal-sec|idas-qslim|"
-                 "idas-qslim-det|cgal-gh|openmesh-quadric\n"
+                 "idas-qslim-det|idas-sec-attr|idas-qslim-attr|cgal-gh|openmesh-quadric\n"
                  "         [--input x1|x4|x16] [--ratio R] [--threads T] [--samples N]"
                  " [--data FILE.obj]\n",
                  message.c_str());
@@ -322,6 +377,15 @@ int run(const options& o) {
     } else if (o.peer == "idas-qslim") {
         using namespace idas::algorithms;
         r = run_idas<qslim<idas_mesh>, qslim_spec>(in, target, o.threads);
+        algorithm = "qslim";
+    } else if (o.peer == "idas-sec-attr") {
+        using namespace idas::algorithms;
+        r = run_idas<shortest_edge_collapse<true, idas_mesh>, shortest_edge_collapse_spec<true>>(
+            in, target, o.threads, true);
+        algorithm = "shortest-edge";
+    } else if (o.peer == "idas-qslim-attr") {
+        using namespace idas::algorithms;
+        r = run_idas<qslim<idas_mesh>, qslim_spec>(in, target, o.threads, true);
         algorithm = "qslim";
     } else if (o.peer == "idas-sec-det") {
         using namespace idas::algorithms;

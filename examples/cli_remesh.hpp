@@ -14,6 +14,7 @@ struct remesh_arguments {
     bool keep_boundary = true;
     bool as_json = false, ascii = false;
     bool deterministic = false; // lock::deterministic_rounds
+    bool drop_attributes = false;
     std::string backend = "indexed";
     // The default output limit: about 15 GB while remeshing (connectivity, queues,
     // attributes and the written copy take some 150 bytes per face).
@@ -68,7 +69,7 @@ int run_remesh(const remesh_arguments& a) {
     const stopwatch total;
     idas::io::format_of(a.out); // an unknown output extension fails before any work
     check_remesh_options(a);
-    const idas::io::surface s = load(a.in);
+    const idas::io::surface s = load(a.in, !a.drop_attributes);
     const mesh_stats in_stats = compute_stats(s);
     std::optional<Mesh> built;
     try {
@@ -91,6 +92,9 @@ int run_remesh(const remesh_arguments& a) {
     o.iterations = a.iterations;
     o.preserve_boundary = a.keep_boundary;
     o.feature_angle_deg = a.feature_angle;
+    // The file's attributes ride along; boundary and features are the remesher's own.
+    carried_attributes carried;
+    o.transfer = carried.attach(m, s, {});
 
     idas::algorithms::remeshing_report r;
     if (a.envelope_option && a.envelope_option->count() > 0) {
@@ -111,6 +115,7 @@ int run_remesh(const remesh_arguments& a) {
 
     idas::io::surface result;
     std::tie(result.vertices, result.faces) = m.to_arrays();
+    carried.export_to(m, result, s);
     const mesh_stats out_stats = compute_stats(result);
     const stopwatch check_clock;
     check_result("remesh", summary_of(in_stats.topo), summary_of(out_stats.topo));
@@ -133,6 +138,7 @@ int run_remesh(const remesh_arguments& a) {
         j["collapses"] = r.collapses;
         j["swaps"] = r.swaps;
         j["smooths"] = r.smooths;
+        j["attributes"] = attributes_json(result);
         j["seconds_algorithm"] = r.seconds;
         j["seconds_check"] = t_check;
         j["seconds_total"] = total.seconds();

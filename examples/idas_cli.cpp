@@ -26,6 +26,7 @@
 // Every input must lie in idas::geometry_range (mesh/geometry_range.hpp); every edited
 // mesh passes a result check (mesh/surface_check.hpp) before it is written; SIGINT and
 // SIGTERM remove a half-written output (io/atomic_file.hpp).
+#include <idas/algorithms/attribute_transfer.hpp>
 #include <idas/algorithms/isotropic_remeshing.hpp>
 #include <idas/algorithms/qslim.hpp>
 #include <idas/algorithms/shortest_edge_collapse.hpp>
@@ -361,8 +362,10 @@ std::string lowercase_extension(const std::string& path) {
 
 /// Reads a mesh file and refuses what no subcommand can use: no triangles at all, or
 /// coordinates outside the supported range.
-idas::io::surface load(const std::string& path) {
-    idas::io::surface s = idas::io::read_surface(path, idas::io::read_options{});
+idas::io::surface load(const std::string& path, bool attributes = true) {
+    idas::io::read_options options;
+    options.attributes = attributes;
+    idas::io::surface s = idas::io::read_surface(path, options);
     if (s.dropped_faces > 0)
         std::fprintf(stderr,
                      "idas: warning: %s: dropped %zu faces whose corners share a position (STL "
@@ -411,7 +414,63 @@ void save(const std::string& path, const idas::io::surface& s, bool ascii) {
     idas::io::format_options options;
     options.encoding = ascii ? idas::io::encoding::ascii : idas::io::encoding::binary;
     idas::io::write_surface(path, s, options);
+    // Said after the write, so it is not said when the write fails.
+    const auto lost = idas::io::unstored_attributes(path, s, options);
+    if (!lost.empty()) {
+        std::string names;
+        for (const auto& n : lost) names += (names.empty() ? "" : ", ") + n;
+        std::fprintf(stderr, "idas: warning: %s cannot store these attributes, not written: %s\n",
+                     path.c_str(), names.c_str());
+    }
 }
+
+/// "uv (corner, float64 x2), material (face, uint32, 3 names)"
+std::string describe_attributes(const idas::io::surface& s) {
+    std::string out;
+    for (const auto& a : s.attributes) {
+        out += out.empty() ? "" : ", ";
+        out += fmt::format(
+            "{} ({}, {}{}{})", a.name, idas::io::to_string(a.domain), idas::io::to_string(a.type),
+            a.width > 1 ? " x" + std::to_string(a.width) : std::string(),
+            a.labels.empty() ? std::string() : ", " + std::to_string(a.labels.size()) + " names");
+    }
+    return out;
+}
+
+json attributes_json(const idas::io::surface& s) {
+    json list = json::array();
+    for (const auto& a : s.attributes) {
+        json j = {{"name", a.name},
+                  {"domain", idas::io::to_string(a.domain)},
+                  {"type", idas::io::to_string(a.type)},
+                  {"width", a.width}};
+        if (!a.labels.empty()) j["labels"] = a.labels;
+        list.push_back(std::move(j));
+    }
+    return list;
+}
+
+/// The attribute carrying of decimate and remesh: the file's attributes (unless dropped)
+/// and the vertices that must stay (kept boundary, sharp features).
+struct carried_attributes {
+    idas::algorithms::attribute_transfer transfer;
+    bool dropped = false;
+
+    template <class Mesh>
+    const idas::algorithms::attribute_transfer*
+    attach(Mesh& m, const idas::io::surface& s,
+           const idas::algorithms::attribute_transfer_options& o) {
+        if (s.attributes.empty() && !o.keep_boundary && o.feature_angle_deg < 0) return nullptr;
+        transfer.attach(m, s, o);
+        return &transfer;
+    }
+    template <class Mesh>
+    void export_to(const Mesh& m, idas::io::surface& result, const idas::io::surface& input) const {
+        if (!transfer.active()) return;
+        result.attributes = transfer.exported(m);
+        result.header_lines = input.header_lines;
+    }
+};
 
 // ---- info ----------------------------------------------------------------------------------
 
@@ -423,20 +482,22 @@ int run_info(const std::string& in, bool as_json) {
         json j;
         j["file"] = in;
         j.update(stats_json(st));
+        j["attributes"] = attributes_json(s);
         j["seconds"] = clock.seconds();
         fmt::print("{}\n", j.dump(2));
     } else {
         fmt::print("{}\n", in);
         print_stats(st);
+        fmt::print("attributes: {}\n", s.attributes.empty() ? "none" : describe_attributes(s));
     }
     return 0;
 }
 
 // ---- convert -------------------------------------------------------------------------------
 
-int run_convert(const std::string& in, const std::string& out, bool ascii) {
+int run_convert(const std::string& in, const std::string& out, bool ascii, bool drop_attributes) {
     idas::io::format_of(out); // an unknown output extension fails before any reading
-    const idas::io::surface s = load(in);
+    const idas::io::surface s = load(in, !drop_attributes);
     save(out, s, ascii);
     fmt::print("{}: {} vertices, {} faces written to {}\n", in, s.vertices.size(), s.faces.size(),
                out);
@@ -686,10 +747,12 @@ struct with_progress_bar : Base {
 };
 
 template <class Algorithm, class Spec, class Mesh>
-idas::run_report decimate_with(Mesh& m, std::int64_t target, unsigned threads) {
+idas::run_report decimate_with(Mesh& m, std::int64_t target, unsigned threads,
+                               const idas::algorithms::attribute_transfer* transfer) {
     terminal_progress bar("decimate");
     with_progress_bar<Spec> spec;
     spec.target_faces = target;
+    spec.transfer = transfer;
     spec.start_faces = static_cast<std::int64_t>(m.n_faces());
     spec.bar = bar.enabled() ? &bar : nullptr;
     idas::exec_options options;
@@ -697,10 +760,19 @@ idas::run_report decimate_with(Mesh& m, std::int64_t target, unsigned threads) {
     return Algorithm::template with_spec<with_progress_bar<Spec>>::run(m, spec, options);
 }
 
+/// What decimate keeps besides the shape.
+struct decimate_keeping {
+    bool drop_attributes = false;
+    bool keep_boundary = false;
+    double feature_angle = -1;
+    CLI::Option* feature_angle_option = nullptr;
+};
+
 template <class Mesh>
 int run_decimate(const std::string& in, const std::string& out, const std::string& algorithm,
                  std::optional<double> ratio, std::int64_t faces, unsigned threads, bool as_json,
-                 bool ascii, const std::string& backend, bool deterministic) {
+                 bool ascii, const std::string& backend, bool deterministic,
+                 const decimate_keeping& keeping) {
     using namespace idas::algorithms;
     using mesh_t = Mesh;
     const stopwatch total;
@@ -708,7 +780,10 @@ int run_decimate(const std::string& in, const std::string& out, const std::strin
     check_threads(threads);
     if (ratio && !(*ratio > 0 && *ratio <= 1)) throw idas::input_error("--ratio must be in (0, 1]");
     if (!ratio && faces < 0) throw idas::input_error("--faces must be non-negative");
-    const idas::io::surface s = load(in);
+    if (keeping.feature_angle_option && keeping.feature_angle_option->count() > 0 &&
+        !(keeping.feature_angle >= 0 && keeping.feature_angle <= 180))
+        throw idas::input_error("--feature-angle must be between 0 and 180 degrees");
+    const idas::io::surface s = load(in, !keeping.drop_attributes);
     std::optional<mesh_t> built;
     try {
         built.emplace(s.vertices, s.faces);
@@ -720,13 +795,19 @@ int run_decimate(const std::string& in, const std::string& out, const std::strin
     const std::int64_t target =
         ratio ? static_cast<std::int64_t>(std::llround(*ratio * double(input_faces))) : faces;
 
+    carried_attributes carried;
+    attribute_transfer_options keep;
+    keep.keep_boundary = keeping.keep_boundary;
+    keep.feature_angle_deg = keeping.feature_angle;
+    const attribute_transfer* transfer = carried.attach(m, s, keep);
+
     idas::run_report r;
     const auto run = [&]<class Lock>(std::type_identity<Lock>) {
         if (algorithm == "qslim")
-            r = decimate_with<qslim<mesh_t, Lock>, qslim_spec>(m, target, threads);
+            r = decimate_with<qslim<mesh_t, Lock>, qslim_spec>(m, target, threads, transfer);
         else
             r = decimate_with<shortest_edge_collapse<true, mesh_t, Lock>,
-                              shortest_edge_collapse_spec<true>>(m, target, threads);
+                              shortest_edge_collapse_spec<true>>(m, target, threads, transfer);
     };
     if (deterministic)
         run(std::type_identity<idas::lock::deterministic_rounds>{});
@@ -735,6 +816,7 @@ int run_decimate(const std::string& in, const std::string& out, const std::strin
 
     idas::io::surface result;
     std::tie(result.vertices, result.faces) = m.to_arrays();
+    carried.export_to(m, result, s);
     const stopwatch check_clock;
     check_result("decimate", idas::summarize_surface(s.vertices.size(), s.faces), result);
     const double t_check = check_clock.seconds();
@@ -753,6 +835,8 @@ int run_decimate(const std::string& in, const std::string& out, const std::strin
         j["threads"] = threads;
         j["deterministic"] = deterministic;
         j["rounds"] = r.rounds;
+        j["attributes"] = attributes_json(result);
+        j["constrained_vertices"] = transfer ? carried.transfer.constrained_count(m) : 0;
         j["seconds_algorithm"] = r.seconds;
         j["seconds_check"] = t_check;
         j["seconds_total"] = total.seconds();
@@ -808,6 +892,7 @@ int run(int argc, char** argv) {
                "others triangle surfaces. Converting tets to .obj/.off/.ply/.stl writes the "
                "boundary surface.");
     app.require_subcommand(1);
+    app.set_version_flag("--version", std::string("idas ") + IDAS_VERSION_STRING);
 
     std::string in, out;
     bool as_json = false, ascii = false;
@@ -822,6 +907,9 @@ int run(int argc, char** argv) {
     convert->add_option("IN", in, "input mesh file")->required();
     convert->add_option("OUT", out, "output mesh file; the extension picks the format")->required();
     convert->add_flag("--ascii", ascii, "write PLY, STL, MSH and VTU as text instead of binary");
+    bool drop_attributes = false;
+    convert->add_flag("--drop-attributes", drop_attributes,
+                      "write positions and triangles only (no UVs, normals, colours, tags)");
     tet_convert_arguments tet_convert;
     add_tet_convert_options(convert, tet_convert);
 
@@ -865,6 +953,15 @@ int run(int argc, char** argv) {
     decimate->add_option("--backend", backend, "connectivity backend: indexed or corner-table")
         ->check(CLI::IsMember(backend_names))
         ->capture_default_str();
+    decimate_keeping keeping;
+    decimate->add_flag("--drop-attributes", keeping.drop_attributes,
+                       "do not read, carry or write the file's attributes (UVs, normals, colours, "
+                       "tags)");
+    decimate->add_flag("--keep-boundary", keeping.keep_boundary,
+                       "no boundary vertex moves or disappears");
+    keeping.feature_angle_option = decimate->add_option(
+        "--feature-angle", keeping.feature_angle,
+        "no vertex on an edge sharper than this dihedral angle (degrees) moves or disappears");
     decimate->callback([&] {
         if (ratio_opt->count() + faces_opt->count() != 1)
             throw CLI::ValidationError("decimate", "give exactly one of --ratio R or --faces N");
@@ -906,6 +1003,9 @@ int run(int argc, char** argv) {
         ->check(CLI::IsMember(backend_names))
         ->capture_default_str();
     remesh->add_flag("--ascii", ra.ascii, "write PLY and STL as text instead of binary");
+    remesh->add_flag("--drop-attributes", ra.drop_attributes,
+                     "do not read, carry or write the file's attributes (UVs, normals, colours, "
+                     "tags)");
 
     harmonic_arguments ha;
     auto* harmonic = add_harmonic_command(app, ha, unsigned_integer);
@@ -918,6 +1018,8 @@ int run(int argc, char** argv) {
     } catch (const CLI::CallForHelp& e) {
         return app.exit(e);
     } catch (const CLI::CallForAllHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::CallForVersion& e) {
         return app.exit(e);
     } catch (const CLI::ParseError& e) {
         std::string message = e.what();
@@ -936,11 +1038,11 @@ int run(int argc, char** argv) {
         return with_backend(backend, [&]<class Mesh>(std::type_identity<Mesh>) {
             return run_decimate<Mesh>(
                 in, out, algorithm, ratio_opt->count() > 0 ? std::optional(ratio) : std::nullopt,
-                target_faces, threads, as_json, ascii, backend, deterministic);
+                target_faces, threads, as_json, ascii, backend, deterministic, keeping);
         });
     if (convert->parsed() && is_tet_convert(in, out))
         return run_tet_convert(in, out, ascii, tet_convert);
-    if (convert->parsed()) return run_convert(in, out, ascii);
+    if (convert->parsed()) return run_convert(in, out, ascii, drop_attributes);
     return with_backend(backend, [&]<class Mesh>(std::type_identity<Mesh>) {
         return run_demo<Mesh>(in, out, as_json, seed, n_ops, ascii, backend);
     });

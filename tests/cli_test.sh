@@ -816,6 +816,46 @@ expect_error "tetmesh negative edge length" 2 "edge-length"
 run tetmesh "$DATA/hour_glass.off" "$TMP/hg3.msh" --epsilon nan
 expect_error "tetmesh NaN epsilon" 2
 
+# ---- attributes (issue 21) --------------------------------------------------------------------
+
+run info "$DATA/blub.obj"
+expect_rc "info blub.obj" 0
+if grep -q 'attributes: uv (corner, float64 x2)' "$TMP/out"; then ok; else fail "info blub.obj: uv not listed: $(grep attributes "$TMP/out")"; fi
+run info "$DATA/blub.obj" --json
+expect_field "info --json attributes" "[(a['name'], a['domain'], a['width']) for a in d['attributes']]" "[('uv', 'corner', 2)]"
+run convert "$DATA/blub.obj" "$TMP/blub_copy.obj"
+expect_rc "convert blub.obj keeps texture" 0
+if [ "$(grep -c '^vt ' "$TMP/blub_copy.obj")" -gt 7000 ] && grep -q '^mtllib ./blub.mtl' "$TMP/blub_copy.obj" && grep -q '^f [0-9]*/[0-9]* ' "$TMP/blub_copy.obj"; then ok; else fail "convert blub.obj: vt, mtllib or f v/vt lost"; fi
+run convert "$DATA/blub.obj" "$TMP/blub_bare.obj" --drop-attributes
+expect_rc "convert --drop-attributes" 0
+if ! grep -q '^vt ' "$TMP/blub_bare.obj"; then ok; else fail "convert --drop-attributes: vt written"; fi
+run convert "$DATA/blub.obj" "$TMP/blub.off"
+expect_rc "convert textured OBJ to OFF" 0
+if grep -q "warning: .*blub.off cannot store these attributes, not written: uv (corner)" "$TMP/err"; then ok; else fail "convert to OFF: no warning about the lost uv: $(head -c 300 "$TMP/err")"; fi
+run decimate "$DATA/blub.obj" "$TMP/blub_dec.obj" --ratio 0.1 --json
+expect_rc "decimate textured" 0
+expect_field "decimate textured: uv carried" "[a['name'] for a in d['attributes']]" "['uv']"
+expect_field "decimate textured: seam vertices kept" "d['constrained_vertices'] > 100" True
+if [ "$(grep -c '^f [0-9]*/[0-9]* [0-9]*/[0-9]* [0-9]*/[0-9]*$' "$TMP/blub_dec.obj")" = "$(field "d['output_faces']")" ]; then ok; else fail "decimate textured: faces without texture coordinates"; fi
+run decimate "$DATA/blub.obj" "$TMP/blub_dec_bare.obj" --ratio 0.1 --drop-attributes --json
+expect_field "decimate --drop-attributes" "d['attributes']" "[]"
+if ! grep -q '^vt ' "$TMP/blub_dec_bare.obj"; then ok; else fail "decimate --drop-attributes: vt written"; fi
+run decimate "$DATA/blub.obj" "$TMP/blub_det1.obj" --ratio 0.1 --deterministic
+run decimate "$DATA/blub.obj" "$TMP/blub_det3.obj" --ratio 0.1 --deterministic --threads 3
+if cmp -s "$TMP/blub_det1.obj" "$TMP/blub_det3.obj"; then ok; else fail "decimate --deterministic with texture: 1 and 3 threads differ"; fi
+run decimate "$DATA/bunny.obj" "$TMP/bunny_kb.ply" --ratio 0.1 --keep-boundary --json
+expect_rc "decimate --keep-boundary" 0
+expect_field "decimate --keep-boundary" "d['constrained_vertices']" "223"
+run decimate "$DATA/bunny.obj" "$TMP/bunny_fa.ply" --ratio 0.1 --feature-angle 200
+expect_error "decimate --feature-angle 200" 2 "feature-angle"
+run remesh "$DATA/blub.obj" "$TMP/blub_rem.obj" --edge-length 0.02 --iterations 2 --json
+expect_rc "remesh textured" 0
+expect_field "remesh textured: uv carried" "[a['name'] for a in d['attributes']]" "['uv']"
+if [ "$(grep -c '^vt ' "$TMP/blub_rem.obj")" -gt 100 ]; then ok; else fail "remesh textured: no vt written"; fi
+run --version
+expect_rc "--version" 0
+if grep -q '^idas [0-9]*\.[0-9]*\.[0-9]*$' "$TMP/out"; then ok; else fail "--version: $(cat "$TMP/out")"; fi
+
 # ---- help ------------------------------------------------------------------------------------
 
 run --help

@@ -181,7 +181,7 @@ std::vector<std::optional<vec3>> collapse_fan(double height, bool frozen_ring) {
         const auto [x, y] = m.edge_vertices(e);
         if (std::min(x, y) != a || std::max(x, y) != b) return;
         for (const tri_tuple& t : {e, m.switch_vertex(e)}) // either end as the tuple's
-            kept.push_back(collapse.before(op::collapse_edge{}, m, t));
+            kept.push_back(collapse.survivor_position(m, t));
     });
     return kept;
 }

@@ -1,6 +1,8 @@
 // Pieces the decimation specs share.
 #pragma once
 
+#include <idas/algorithms/attribute_transfer.hpp>
+
 #include <idas/exec/executor.hpp>
 #include <idas/mesh/tri_mesh.hpp>
 
@@ -164,6 +166,9 @@ struct face_target {
 /// The schedule both decimations share: every edge first; after a collapse, the edges it
 /// changed; stop at the target face count.
 struct collapse_schedule : face_target, refusal_memory {
+    /// A: the file's attributes, carried through the collapses (none when null).
+    const attribute_transfer* transfer = nullptr;
+
     template <class Mesh, class Push>
     void initial(const Mesh& m, Push& push) const {
         push_all_edges<op::collapse_edge>(m, push);

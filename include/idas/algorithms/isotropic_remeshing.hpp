@@ -45,6 +45,9 @@ struct remeshing_options {
     bool preserve_boundary = true; // boundary vertices stay where they are
     double feature_angle_deg = -1; // dihedral angle above which an edge is sharp; <0: none
     bool project = true;           // project smoothed vertices back onto the input
+    /// A: the file's attributes carried through every operation (none when null); its
+    /// constrained vertices (seams, tag borders) are kept like features.
+    const attribute_transfer* transfer = nullptr;
 };
 
 namespace detail {
@@ -100,6 +103,7 @@ struct remeshing_state {
     // (so each vertex moves at most once per pass).
     vertex_attribute<std::uint32_t> smoothed;
     std::uint32_t pass = 0;
+    const attribute_transfer* transfer = nullptr; // the file's attributes, if carried
 };
 
 namespace detail {
@@ -244,6 +248,7 @@ struct remesh_split_spec : detail::with_invariants<Extra...> {
         m.attribute(s.frozen).set(v, c.frozen);
         m.attribute(s.feature).set(v, c.feature);
         m.attribute(s.boundary).set(v, c.boundary);
+        if (s.transfer) s.transfer->split_after(m, r);
         return true;
     }
     template <class Mesh, class Push>
@@ -278,9 +283,22 @@ struct remesh_collapse_spec : detail::with_invariants<Extra...> {
         const auto [a, b] = m.edge_vertices(t);
         return squared_norm(m.position(a) - m.position(b)); // shortest first
     }
+    struct collapse_cache {
+        vec3 position;
+        carried_values carried; // the file's attributes there
+    };
     template <class Mesh>
-    std::optional<vec3> before(op::collapse_edge, const Mesh& m,
-                               const typename Mesh::tuple& t) const {
+    std::optional<collapse_cache> before(op::collapse_edge, const Mesh& m,
+                                         const typename Mesh::tuple& t) const {
+        const auto p = survivor_position(m, t);
+        if (!p) return std::nullopt;
+        std::optional<collapse_cache> c(std::in_place);
+        c->position = *p;
+        if (s.transfer && !s.transfer->collapse_before(m, t, *p, c->carried)) c.reset();
+        return c;
+    }
+    template <class Mesh>
+    std::optional<vec3> survivor_position(const Mesh& m, const typename Mesh::tuple& t) const {
         const auto [a, b] = m.edge_vertices(t);
         const double lo = 0.8 * s.L, hi = 4.0 / 3.0 * s.L;
         if (!(squared_norm(m.position(a) - m.position(b)) < lo * lo)) return std::nullopt;
@@ -330,8 +348,9 @@ struct remesh_collapse_spec : detail::with_invariants<Extra...> {
     }
     template <class Mesh>
     bool after(op::collapse_edge, Mesh& m, const op_result<typename Mesh::tuple>& r,
-               const vec3& p) const {
-        m.positions().set(r.anchor.vid, p);
+               const collapse_cache& c) const {
+        m.positions().set(r.anchor.vid, c.position);
+        if (s.transfer && !s.transfer->collapse_after(m, r, c.carried)) return false;
         // The survivor took over b's faces: it is on the boundary if any of them is open.
         bool open = false;
         for (const auto& c : r.cells)
@@ -358,11 +377,28 @@ struct remesh_swap_spec : detail::with_invariants<Extra...> {
     template <class Push, class Mesh>
     void initial_at(const Mesh& m, index_t v, Push& push) const {
         for_each_edge_from(m, v, [&](const typename Mesh::tuple& t) {
-            if (before(op::swap_edge{}, m, t)) push(op::swap_edge{}, t);
+            if (wanted(m, t)) push(op::swap_edge{}, t);
         });
     }
+    /// The corner values of the quad's vertices (the file's attributes, if carried).
+    using swap_cache = attribute_transfer::swap_values;
     template <class Mesh>
-    bool before(op::swap_edge, const Mesh& m, const typename Mesh::tuple& t) const {
+    std::optional<swap_cache> before(op::swap_edge, const Mesh& m,
+                                     const typename Mesh::tuple& t) const {
+        std::optional<swap_cache> c; // one return, so the cache is built in place
+        if (wanted(m, t) && (!s.transfer || s.transfer->swap_allowed(m, t))) {
+            c.emplace();
+            if (s.transfer) s.transfer->swap_before(m, t, *c);
+        }
+        return c;
+    }
+    template <class Mesh>
+    bool after(op::swap_edge, Mesh& m, const op_result<typename Mesh::tuple>& r,
+               const swap_cache& c) const {
+        return !s.transfer || s.transfer->swap_after(m, r, c);
+    }
+    template <class Mesh>
+    bool wanted(const Mesh& m, const typename Mesh::tuple& t) const {
         if (m.is_boundary_edge(t)) return false;
         const auto [a, b] = m.edge_vertices(t);
         const auto fe = m.attribute(s.feature);
@@ -447,10 +483,22 @@ struct remesh_smooth_spec : detail::with_invariants<Extra...> {
         if (movable(m, v) && !std::ranges::empty(m.vertex_faces(v))) // not unreferenced
             push(op::smooth_vertex{}, m.tuple_from_vertex(v));
     }
+    struct smooth_cache {
+        vec3 position;
+        carried_values carried; // the file's attributes there
+    };
     template <class Mesh>
-    std::optional<vec3> before(op::smooth_vertex, const Mesh& m,
-                               const typename Mesh::tuple& t) const {
-        const index_t v = t.vid;
+    std::optional<smooth_cache> before(op::smooth_vertex, const Mesh& m,
+                                       const typename Mesh::tuple& t) const {
+        const auto q = target(m, t.vid);
+        if (!q) return std::nullopt;
+        std::optional<smooth_cache> c(std::in_place);
+        c->position = *q;
+        if (s.transfer && !s.transfer->smooth_before(m, t.vid, *q, c->carried)) c.reset();
+        return c;
+    }
+    template <class Mesh>
+    std::optional<vec3> target(const Mesh& m, index_t v) const {
         if (!movable(m, v)) return std::nullopt;
         vec3 c{};
         // Towards the area-weighted centroid of the incident faces: against the uniform
@@ -479,10 +527,10 @@ struct remesh_smooth_spec : detail::with_invariants<Extra...> {
     }
     template <class Mesh>
     bool after(op::smooth_vertex, Mesh& m, const op_result<typename Mesh::tuple>& r,
-               const vec3& q) const {
-        m.positions().set(r.anchor.vid, q);
+               const smooth_cache& c) const {
+        m.positions().set(r.anchor.vid, c.position);
         m.attribute(s.smoothed).set(r.anchor.vid, s.pass);
-        return true;
+        return !s.transfer || s.transfer->smooth_after(m, r, c.carried);
     }
 };
 
@@ -532,6 +580,7 @@ struct isotropic_remeshing {
             m, m.template add_vertex_attribute<std::uint32_t>("remesh_smoothed", 0));
         s.frozen = frozen.handle, s.feature = feature.handle, s.boundary = boundary.handle;
         s.smoothed = smoothed.handle;
+        s.transfer = o.transfer;
         // Only smoothing projects onto the input, so with several threads its tree is
         // built beside the first split and collapse phases instead of before them (on
         // armadillo x4 the build is 0.35 s, a tenth of a serial remesh).
@@ -566,6 +615,11 @@ private:
         auto fr = m.attribute(s.frozen);
         auto fe = m.attribute(s.feature);
         auto bd = m.attribute(s.boundary);
+        // Seams and tag borders are kept like features.
+        if (o.transfer)
+            m.for_each_vertex([&](const typename Mesh::tuple& t) {
+                if (o.transfer->constrained(m, t.vid)) fr.raw(t.vid) = fe.raw(t.vid) = 1;
+            });
         m.for_each_vertex([&](const typename Mesh::tuple& t) {
             if (m.is_boundary_vertex(t.vid)) bd.raw(t.vid) = 1, fr.raw(t.vid) = o.preserve_boundary;
         });

@@ -165,19 +165,26 @@ struct qslim_spec : collapse_schedule {
         return place(m, a, b).cost;
     }
 
+    struct collapse_cache {
+        placement p;
+        carried_values carried; // the file's attributes at p
+    };
+
     template <class Mesh>
-    std::optional<placement> before(op::collapse_edge, const Mesh& m,
-                                    const typename Mesh::tuple& t) const {
+    std::optional<collapse_cache> before(op::collapse_edge, const Mesh& m,
+                                         const typename Mesh::tuple& t) const {
         const auto [a, b] = m.edge_vertices(t);
-        return place(m, a, b);
+        std::optional<collapse_cache> c(std::in_place, collapse_cache{place(m, a, b), {}});
+        if (transfer && !transfer->collapse_before(m, t, c->p.position, c->carried)) c.reset();
+        return c;
     }
 
     template <class Mesh>
     bool after(op::collapse_edge, Mesh& m, const op_result<typename Mesh::tuple>& r,
-               const placement& p) const {
-        m.positions().set(r.anchor.vid, p.position);
-        m.attribute(Q).set(r.anchor.vid, p.merged);
-        return true;
+               const collapse_cache& c) const {
+        m.positions().set(r.anchor.vid, c.p.position);
+        m.attribute(Q).set(r.anchor.vid, c.p.merged);
+        return !transfer || transfer->collapse_after(m, r, c.carried);
     }
 
     auto invariants() const { return invariant_set<no_normal_flip>{}; }

@@ -32,20 +32,29 @@ struct shortest_edge_collapse_spec : collapse_schedule {
         return squared_norm(m.position(a) - m.position(b));
     }
 
+    struct collapse_cache {
+        vec3 position;
+        carried_values carried; // the file's attributes there
+    };
+
     template <class Mesh>
-    std::optional<vec3> before(op::collapse_edge, const Mesh& m,
-                               const typename Mesh::tuple& t) const {
+    std::optional<collapse_cache> before(op::collapse_edge, const Mesh& m,
+                                         const typename Mesh::tuple& t) const {
         const auto [a, b] = m.edge_vertices(t);
         const bool on_a = m.is_boundary_vertex(a), on_b = m.is_boundary_vertex(b);
-        if (on_a != on_b) return m.position(on_a ? a : b); // keep the boundary where it is
-        return (m.position(a) + m.position(b)) * 0.5;
+        std::optional<collapse_cache> c(std::in_place);
+        // An open boundary stays where it is.
+        c->position =
+            on_a != on_b ? m.position(on_a ? a : b) : (m.position(a) + m.position(b)) * 0.5;
+        if (transfer && !transfer->collapse_before(m, t, c->position, c->carried)) c.reset();
+        return c;
     }
 
     template <class Mesh>
     bool after(op::collapse_edge, Mesh& m, const op_result<typename Mesh::tuple>& r,
-               const vec3& p) const {
-        m.positions().set(r.anchor.vid, p);
-        return true;
+               const collapse_cache& c) const {
+        m.positions().set(r.anchor.vid, c.position);
+        return !transfer || transfer->collapse_after(m, r, c.carried);
     }
 
     auto invariants() const {

@@ -9,6 +9,7 @@
 
 #include <filesystem>
 #include <string>
+#include <vector>
 
 namespace idas::io {
 
@@ -44,6 +45,24 @@ inline surface read_surface(const std::filesystem::path& path, const read_option
         return read_ply(path, options);
     case file_format::stl:
         return read_stl(path, options);
+    }
+    return {};
+}
+
+/// The attributes of `s` that writing it to `path` would lose, as "name (domain)": the
+/// callers warn about them (OFF stores none; see each format's *_unstored_attributes).
+inline std::vector<std::string> unstored_attributes(const std::filesystem::path& path,
+                                                    const surface& s,
+                                                    const format_options& options = {}) {
+    switch (format_of(path)) {
+    case file_format::obj:
+        return obj_unstored_attributes(s);
+    case file_format::off:
+        return detail::unstored_attributes(s, [](const attribute_column&) { return false; });
+    case file_format::ply:
+        return ply_unstored_attributes(s);
+    case file_format::stl:
+        return stl_unstored_attributes(s, options.encoding);
     }
     return {};
 }

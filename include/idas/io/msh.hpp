@@ -417,10 +417,13 @@ private:
                       " nodes but the blocks hold " + std::to_string(read));
     }
 
-    void add_tet(std::uint64_t element, const std::array<std::uint64_t, 4>& nodes) {
+    /// `physical`: the element's physical tag (MSH 2.2's first tag), 0 if it has none.
+    void add_tet(std::uint64_t element, const std::array<std::uint64_t, 4>& nodes,
+                 std::int64_t physical = 0) {
         if (tet_nodes_.size() >= invalid_index - 1) fail(source_, "too many tets");
         tet_nodes_.push_back(nodes);
         tet_elements_.push_back(element);
+        tet_physical_.push_back(physical);
     }
 
     void elements_22() {
@@ -451,7 +454,9 @@ private:
                         ++skipped_;
                         continue;
                     }
-                    pos_ += 4 * static_cast<std::size_t>(ntags);
+                    std::int64_t physical = 0;
+                    if (ntags > 0) physical = bin<std::int32_t>("an element");
+                    pos_ += 4 * static_cast<std::size_t>(std::max(ntags - 1, 0));
                     std::array<std::uint64_t, 4> nodes{};
                     for (auto& v : nodes) {
                         const auto tag = bin<std::int32_t>("an element");
@@ -460,7 +465,7 @@ private:
                                       " has negative node tag " + std::to_string(tag));
                         v = static_cast<std::uint64_t>(tag);
                     }
-                    add_tet(static_cast<std::uint64_t>(number), nodes);
+                    add_tet(static_cast<std::uint64_t>(number), nodes, physical);
                 }
                 read += static_cast<std::uint64_t>(n);
             }
@@ -486,7 +491,8 @@ private:
                 ++skipped_;
                 continue;
             }
-            add_tet_from(number, values, 3 + static_cast<std::size_t>(ntags));
+            add_tet_from(number, values, 3 + static_cast<std::size_t>(ntags),
+                         ntags > 0 ? values[3] : 0);
         }
     }
 
@@ -570,7 +576,8 @@ private:
         --pos_; // back onto the element's line for the line number
         fail_here("element " + std::to_string(number) + " " + what);
     }
-    void add_tet_from(std::int64_t number, const element_values& values, std::size_t first) {
+    void add_tet_from(std::int64_t number, const element_values& values, std::size_t first,
+                      std::int64_t physical = 0) {
         std::array<std::uint64_t, 4> nodes{};
         for (std::size_t k = 0; k < 4; ++k) {
             if (values[first + k] < 0)
@@ -578,7 +585,7 @@ private:
                                      "has negative node tag " + std::to_string(values[first + k]));
             nodes[k] = static_cast<std::uint64_t>(values[first + k]);
         }
-        add_tet(static_cast<std::uint64_t>(number), nodes);
+        add_tet(static_cast<std::uint64_t>(number), nodes, physical);
     }
 
     volume resolve() {
@@ -635,6 +642,15 @@ private:
             }
             out.vertex_fields.push_back(std::move(field));
         }
+        // Physical tags (MSH 2.2) become the tets' tags when every tet has a positive one
+        // that fits an int (what the writers store); otherwise none are kept.
+        if (!tet_physical_.empty() &&
+            std::all_of(
+                tet_physical_.begin(), tet_physical_.end(),
+                [](std::int64_t t) { return t > 0 && t <= std::numeric_limits<int>::max(); }) &&
+            std::any_of(tet_physical_.begin(), tet_physical_.end(),
+                        [](std::int64_t t) { return t != 1; }))
+            out.tags.assign(tet_physical_.begin(), tet_physical_.end());
         out.vertices = std::move(vertices_);
         return out;
     }
@@ -647,6 +663,7 @@ private:
     std::vector<std::pair<std::uint64_t, index_t>> tags_; // (tag, index) in file order
     std::vector<std::array<std::uint64_t, 4>> tet_nodes_; // node tags, resolved at the end
     std::vector<std::uint64_t> tet_elements_;             // element tags, for messages
+    std::vector<std::int64_t> tet_physical_;              // physical tags, 0 for none
     std::size_t skipped_ = 0;
     struct raw_field {
         std::string name;

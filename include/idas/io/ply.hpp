@@ -1,7 +1,10 @@
 // Stanford PLY in its three encodings (ascii, binary_little_endian, binary_big_endian).
 // The reader takes x, y, z from the "vertex" element and the "vertex_indices" (or
-// "vertex_index") list from the "face" element; every other property and element is
-// skipped. The writer emits double coordinates and int32 indices.
+// "vertex_index") list from the "face" element. Every other scalar property of those two
+// elements (normals, colours, quality, custom) becomes a vertex or face attribute of the
+// same name and type, and a face's "texcoord" list (u v per corner, as MeshLab writes it)
+// the corner attribute "texcoord"; other lists and elements are skipped. The writer emits
+// double coordinates, int32 indices and the attributes with their types.
 #pragma once
 
 #include "idas/io/atomic_file.hpp"
@@ -22,7 +25,9 @@ namespace idas::io {
 
 namespace detail {
 
+// The same numbering as io::scalar_type, so a property's type is the attribute's.
 enum class ply_type : std::uint8_t { int8, uint8, int16, uint16, int32, uint32, float32, float64 };
+static_assert(static_cast<int>(ply_type::float64) == static_cast<int>(scalar_type::float64));
 
 inline bool parse_ply_type(std::string_view name, ply_type& type) noexcept {
     // PLY has two spellings for every type: the original ("uchar") and sized ("uint8").
@@ -51,6 +56,12 @@ inline bool parse_ply_type(std::string_view name, ply_type& type) noexcept {
 constexpr std::size_t ply_size(ply_type t) noexcept {
     constexpr std::size_t sizes[] = {1, 1, 2, 2, 4, 4, 4, 8};
     return sizes[static_cast<int>(t)];
+}
+
+inline const char* ply_type_name(scalar_type t) noexcept {
+    constexpr const char* names[] = {"char", "uchar", "short", "ushort",
+                                     "int",  "uint",  "float", "double"};
+    return names[static_cast<int>(t)];
 }
 
 constexpr bool ply_is_integer(ply_type t) noexcept {
@@ -207,7 +218,7 @@ inline std::string ply_plural(const ply_element& e) {
 
 /// What the reader does with a property: keep it as a coordinate, as the face's corner
 /// list, or skip it.
-enum class ply_role : std::uint8_t { skip, x, y, z, corners };
+enum class ply_role : std::uint8_t { skip, x, y, z, corners, attribute, texcoord };
 
 /// Reads the element bodies described by the header. The two encodings differ only in how
 /// values are fetched; validation and assembly are shared.
@@ -247,6 +258,7 @@ private:
         bool face_seen = false;
         for (const ply_element& e : header_.elements) {
             std::vector<ply_role>& roles = roles_.emplace_back(e.properties.size(), ply_role::skip);
+            columns_.emplace_back(e.properties.size(), npos);
             if (&e == vertex) {
                 const char* axes[3] = {"x", "y", "z"};
                 for (int axis = 0; axis < 3; ++axis) {
@@ -259,6 +271,7 @@ private:
                     roles[static_cast<std::size_t>(it - e.properties.begin())] =
                         static_cast<ply_role>(static_cast<int>(ply_role::x) + axis);
                 }
+                add_attribute_roles(e, roles, columns_.back(), attribute_domain::vertex);
             } else if (e.name == "face") {
                 if (face_seen) fail(source_, "the PLY header declares two face elements");
                 face_seen = true;
@@ -271,6 +284,35 @@ private:
                 if (!ply_is_integer(it->type))
                     fail(source_, "the face vertex_indices list does not have an integer type");
                 roles[static_cast<std::size_t>(it - e.properties.begin())] = ply_role::corners;
+                add_attribute_roles(e, roles, columns_.back(), attribute_domain::face);
+            }
+        }
+    }
+
+    /// Every other scalar property of the vertex or face element becomes an attribute
+    /// column (its index kept in `columns`), and a face texcoord list the corner attribute
+    /// "texcoord".
+    void add_attribute_roles(const ply_element& e, std::vector<ply_role>& roles,
+                             std::vector<std::size_t>& columns, attribute_domain domain) {
+        if (!options_.attributes) return;
+        for (std::size_t pi = 0; pi < e.properties.size(); ++pi) {
+            const ply_property& p = e.properties[pi];
+            if (roles[pi] != ply_role::skip) continue;
+            if (!p.is_list) {
+                roles[pi] = ply_role::attribute;
+                columns[pi] = surface_.attributes.size();
+                surface_.attributes.push_back(
+                    {p.name, domain, static_cast<scalar_type>(p.type), 1, {}, {}});
+            } else if (domain == attribute_domain::face && p.name == "texcoord" &&
+                       !ply_is_integer(p.type)) {
+                roles[pi] = ply_role::texcoord;
+                columns[pi] = surface_.attributes.size();
+                surface_.attributes.push_back({p.name,
+                                               attribute_domain::corner,
+                                               static_cast<scalar_type>(p.type),
+                                               2,
+                                               {},
+                                               {}});
             }
         }
     }
@@ -288,15 +330,61 @@ private:
         poly_.push_back(static_cast<index_t>(index));
     }
 
+    /// Keeps the current instance's value of an attribute column.
+    void keep_value(std::size_t column, double value) { pending_.push_back({column, value}); }
+
     template <class Fail>
     void finish_instance(const ply_element& e, std::uint64_t i, const vec3& p, Fail&& fail_here) {
         if (is_vertex(e)) {
             if (!is_finite(p))
                 fail_here("vertex " + std::to_string(i) + " has a non-finite coordinate");
             surface_.vertices.push_back(p);
+            for (const auto& [column, value] : pending_)
+                surface_.attributes[column].values.push_back(value);
         } else if (is_face(e)) {
+            const std::size_t first = surface_.faces.size();
             add_polygon(surface_.faces, poly_, i, options_, 0, fail_here);
+            const std::size_t triangles = surface_.faces.size() - first;
+            for (const auto& [column, value] : pending_)
+                surface_.attributes[column].values.insert(surface_.attributes[column].values.end(),
+                                                          triangles, value);
+            if (texcoord_column_ != npos) {
+                if (texcoords_.size() != 2 * poly_.size())
+                    fail_here("face " + std::to_string(i) + " has " +
+                              std::to_string(texcoords_.size()) + " texcoord values for " +
+                              std::to_string(poly_.size()) + " corners");
+                auto& values = surface_.attributes[texcoord_column_].values;
+                for (std::size_t k = 1; k + 1 < poly_.size(); ++k)
+                    for (std::size_t c : {std::size_t{0}, k, k + 1})
+                        values.push_back(texcoords_[2 * c]),
+                            values.push_back(texcoords_[2 * c + 1]);
+            }
         }
+        pending_.clear();
+        texcoords_.clear();
+        texcoord_column_ = npos;
+    }
+
+    /// An attribute value read from text: float32 properties are parsed as float, so
+    /// they read back to the same bits as a binary file would give.
+    template <class Fail>
+    double attribute_from_text(ply_type type, std::string_view token, Fail&& fail_here) {
+        double value = 0;
+        parse_status status;
+        if (type == ply_type::float32) {
+            float single = 0;
+            status = parse_real(token, single);
+            value = single;
+        } else {
+            status = parse_double(token, value);
+        }
+        if (status == parse_status::not_a_number) fail_here(quoted(token) + " is not a number");
+        if (status == parse_status::out_of_range ||
+            representable(scalar_type(type), value) != value)
+            if (!std::isnan(value) || ply_is_integer(type))
+                fail_here(quoted(token) + " does not fit in a PLY " +
+                          ply_type_name(scalar_type(type)));
+        return value;
     }
 
     void reserve(const ply_element& e, std::size_t min_bytes) {
@@ -342,6 +430,9 @@ private:
                         if (role >= ply_role::x && role <= ply_role::z)
                             point[static_cast<int>(role) - 1] =
                                 ply_load_double(prop.type, base + pos, swap);
+                        else if (role == ply_role::attribute)
+                            keep_value(columns_[ei][pi],
+                                       ply_load_double(prop.type, base + pos, swap));
                         pos += n;
                         continue;
                     }
@@ -362,6 +453,12 @@ private:
                                              base + pos + static_cast<std::size_t>(k) * item_size,
                                              swap),
                                 i, fail_here);
+                    } else if (roles[pi] == ply_role::texcoord) {
+                        texcoord_column_ = columns_[ei][pi];
+                        for (std::int64_t k = 0; k < length; ++k)
+                            texcoords_.push_back(ply_load_double(
+                                prop.type, base + pos + static_cast<std::size_t>(k) * item_size,
+                                swap));
                     }
                     pos += static_cast<std::size_t>(length) * item_size;
                 }
@@ -410,6 +507,11 @@ private:
                             skip_number(token);
                             continue;
                         }
+                        if (role == ply_role::attribute) {
+                            keep_value(columns_[ei][pi],
+                                       attribute_from_text(prop.type, token, fail_here));
+                            continue;
+                        }
                         double& value = point[static_cast<int>(role) - 1];
                         const auto status = parse_double(token, value);
                         if (status == parse_status::not_a_number)
@@ -424,8 +526,13 @@ private:
                         fail_here(quoted(token) + " is not a list length");
                     // Items are consumed one token at a time, so a huge length simply runs
                     // into the end of the data.
+                    if (role == ply_role::texcoord) texcoord_column_ = columns_[ei][pi];
                     for (std::int64_t k = 0; k < length; ++k) {
                         token = next();
+                        if (role == ply_role::texcoord) {
+                            texcoords_.push_back(attribute_from_text(prop.type, token, fail_here));
+                            continue;
+                        }
                         if (role != ply_role::corners) {
                             skip_number(token);
                             continue;
@@ -449,10 +556,16 @@ private:
     std::string_view source_;
     const read_options& options_;
     ply_header header_;
-    std::vector<std::vector<ply_role>> roles_; // per element, per property
+    static constexpr std::size_t npos = ~std::size_t{0};
+    std::vector<std::vector<ply_role>> roles_;      // per element, per property
+    std::vector<std::vector<std::size_t>> columns_; // attribute column, or npos
     std::uint64_t vertex_count_ = 0;
     std::vector<index_t> poly_;
     surface surface_;
+    // The current instance's attribute values.
+    std::vector<std::pair<std::size_t, double>> pending_;
+    std::vector<double> texcoords_;
+    std::size_t texcoord_column_ = npos;
 };
 
 /// Appends a value in little-endian byte order, whatever the host's order.
@@ -464,20 +577,104 @@ void put_little_endian(std::string& out, T value) {
     out.append(reinterpret_cast<const char*>(bytes), sizeof(T));
 }
 
+/// The property names of an attribute column: its own name for one component, the usual
+/// PLY names for normals, colours and texture coordinates, name_0, name_1... otherwise.
+inline std::vector<std::string> ply_property_names(const attribute_column& a) {
+    if (a.width == 1) return {a.name};
+    if (a.width == 3 && a.name == "normal") return {"nx", "ny", "nz"};
+    if (a.width == 3 && a.name == "color") return {"red", "green", "blue"};
+    if (a.width == 2 && a.name == "uv") return {"s", "t"};
+    std::vector<std::string> names;
+    for (std::uint32_t k = 0; k < a.width; ++k) names.push_back(a.name + "_" + std::to_string(k));
+    return names;
+}
+
+inline bool ply_stores(const attribute_column& a) noexcept {
+    return a.domain != attribute_domain::corner || a.width == 2;
+}
+
+/// Appends x in type t, little-endian (x is first made representable: rounded, clamped).
+inline void put_scalar(std::string& out, scalar_type t, double x) {
+    x = representable(t, x);
+    switch (t) {
+    case scalar_type::int8:
+        return put_little_endian(out, static_cast<std::int8_t>(x));
+    case scalar_type::uint8:
+        return put_little_endian(out, static_cast<std::uint8_t>(x));
+    case scalar_type::int16:
+        return put_little_endian(out, static_cast<std::int16_t>(x));
+    case scalar_type::uint16:
+        return put_little_endian(out, static_cast<std::uint16_t>(x));
+    case scalar_type::int32:
+        return put_little_endian(out, static_cast<std::int32_t>(x));
+    case scalar_type::uint32:
+        return put_little_endian(out, static_cast<std::uint32_t>(x));
+    case scalar_type::float32:
+        return put_little_endian(out, static_cast<float>(x));
+    case scalar_type::float64:
+        return put_little_endian(out, x);
+    }
+}
+
+/// Writes x as text, with the shortest digits that read back to the same value of type t.
+inline void put_scalar(text_sink& out, scalar_type t, double x) {
+    x = representable(t, x);
+    if (t == scalar_type::float32)
+        out << static_cast<float>(x);
+    else
+        out << x;
+}
+
 inline void write_ply_unchecked(std::ostream& os, const surface& s, encoding enc) {
     // int32 indices as promised, unless the mesh is too large for them.
     const bool wide =
         s.vertices.size() > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max());
+    std::vector<const attribute_column*> vertex_columns, face_columns, corner_columns;
+    for (const attribute_column& a : s.attributes) {
+        if (!ply_stores(a)) continue;
+        (a.domain == attribute_domain::vertex ? vertex_columns
+         : a.domain == attribute_domain::face ? face_columns
+                                              : corner_columns)
+            .push_back(&a);
+    }
     text_sink header(os);
     header << "ply\nformat " << (enc == encoding::ascii ? "ascii" : "binary_little_endian")
            << " 1.0\ncomment written by idas\nelement vertex " << std::uint64_t{s.vertices.size()}
-           << "\nproperty double x\nproperty double y\nproperty double z\nelement face "
-           << std::uint64_t{s.faces.size()} << "\nproperty list uchar " << (wide ? "uint" : "int")
-           << " vertex_indices\nend_header\n";
+           << "\nproperty double x\nproperty double y\nproperty double z\n";
+    for (const attribute_column* a : vertex_columns)
+        for (const std::string& name : ply_property_names(*a))
+            header << "property " << ply_type_name(a->type) << ' ' << name << '\n';
+    header << "element face " << std::uint64_t{s.faces.size()} << "\nproperty list uchar "
+           << (wide ? "uint" : "int") << " vertex_indices\n";
+    for (const attribute_column* a : face_columns)
+        for (const std::string& name : ply_property_names(*a))
+            header << "property " << ply_type_name(a->type) << ' ' << name << '\n';
+    for (const attribute_column* a : corner_columns)
+        header << "property list uchar " << ply_type_name(a->type) << ' '
+               << (a->name == "uv" ? std::string("texcoord") : a->name) << '\n';
+    header << "end_header\n";
     if (enc == encoding::ascii) {
-        for (const vec3& p : s.vertices) header << p.x << ' ' << p.y << ' ' << p.z << '\n';
-        for (const tri_indices& t : s.faces)
-            header << "3 " << t[0] << ' ' << t[1] << ' ' << t[2] << '\n';
+        for (std::size_t v = 0; v < s.vertices.size(); ++v) {
+            const vec3& p = s.vertices[v];
+            header << p.x << ' ' << p.y << ' ' << p.z;
+            for (const attribute_column* a : vertex_columns)
+                for (std::uint32_t k = 0; k < a->width; ++k)
+                    header << ' ', put_scalar(header, a->type, a->values[v * a->width + k]);
+            header << '\n';
+        }
+        for (std::size_t f = 0; f < s.faces.size(); ++f) {
+            const tri_indices& t = s.faces[f];
+            header << "3 " << t[0] << ' ' << t[1] << ' ' << t[2];
+            for (const attribute_column* a : face_columns)
+                for (std::uint32_t k = 0; k < a->width; ++k)
+                    header << ' ', put_scalar(header, a->type, a->values[f * a->width + k]);
+            for (const attribute_column* a : corner_columns) {
+                header << " 6";
+                for (std::size_t k = 0; k < 6; ++k)
+                    header << ' ', put_scalar(header, a->type, a->values[6 * f + k]);
+            }
+            header << '\n';
+        }
         header.flush();
         return;
     }
@@ -492,19 +689,30 @@ inline void write_ply_unchecked(std::ostream& os, const surface& s, encoding enc
             buf.clear();
         }
     };
-    for (const vec3& p : s.vertices) {
+    for (std::size_t v = 0; v < s.vertices.size(); ++v) {
+        const vec3& p = s.vertices[v];
         put_little_endian(buf, p.x);
         put_little_endian(buf, p.y);
         put_little_endian(buf, p.z);
+        for (const attribute_column* a : vertex_columns)
+            for (std::uint32_t k = 0; k < a->width; ++k)
+                put_scalar(buf, a->type, a->values[v * a->width + k]);
         drain(false);
     }
-    for (const tri_indices& t : s.faces) {
+    for (std::size_t f = 0; f < s.faces.size(); ++f) {
         buf.push_back(3);
-        for (index_t v : t) {
+        for (index_t v : s.faces[f]) {
             if (wide)
                 put_little_endian(buf, std::uint32_t{v});
             else
                 put_little_endian(buf, static_cast<std::int32_t>(v));
+        }
+        for (const attribute_column* a : face_columns)
+            for (std::uint32_t k = 0; k < a->width; ++k)
+                put_scalar(buf, a->type, a->values[f * a->width + k]);
+        for (const attribute_column* a : corner_columns) {
+            buf.push_back(6);
+            for (std::size_t k = 0; k < 6; ++k) put_scalar(buf, a->type, a->values[6 * f + k]);
         }
         drain(false);
     }
@@ -523,6 +731,12 @@ inline surface parse_ply(std::string_view data, std::string_view source,
 
 inline surface read_ply(const std::filesystem::path& path, const read_options& options = {}) {
     return parse_ply(detail::read_file(path), path.string(), options);
+}
+
+/// Attributes that PLY output cannot hold (corner attributes other than 2-component
+/// texture coordinates).
+inline std::vector<std::string> ply_unstored_attributes(const surface& s) {
+    return detail::unstored_attributes(s, detail::ply_stores);
 }
 
 /// Binary output stores coordinates as double and indices as int32 (uint32 beyond 2^31

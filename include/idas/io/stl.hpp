@@ -148,6 +148,9 @@ inline surface parse_binary_stl(std::string_view data, std::string_view source,
     stl_vertices vertices(s.vertices, source, options.weld_stl, count / 2 + 8);
     s.vertices.reserve(options.weld_stl ? count / 2 + 8 : 3 * count);
     std::array<index_t, 3> poly;
+    // The facets' attribute words (colour, part number: exporters differ), per kept face.
+    std::vector<double> words;
+    bool any_word = false;
     for (std::size_t f = 0; f < count; ++f) {
         const char* facet = data.data() + stl_header_size + f * stl_facet_size;
         const auto fail_here = [&](const std::string& what) {
@@ -162,10 +165,23 @@ inline surface parse_binary_stl(std::string_view data, std::string_view source,
                           " has a non-finite coordinate");
             poly[static_cast<std::size_t>(c)] = vertices.add(p);
         }
-        if (!drop_welded_facet(s, poly, options))
+        if (!drop_welded_facet(s, poly, options)) {
             add_polygon(s.faces, poly, f, options, 0, fail_here);
+            const std::uint16_t word = static_cast<std::uint16_t>(
+                static_cast<unsigned char>(facet[48]) | static_cast<unsigned char>(facet[49]) << 8);
+            words.push_back(word);
+            any_word = any_word || word != 0;
+        }
     }
     remove_unreferenced_vertices(s);
+    // All zero is what nearly every exporter writes, and what the writer writes anyway.
+    if (any_word && options.attributes)
+        s.attributes.push_back({"stl_attribute",
+                                attribute_domain::face,
+                                scalar_type::uint16,
+                                1,
+                                std::move(words),
+                                {}});
     return s;
 }
 
@@ -319,12 +335,17 @@ inline void write_stl_unchecked(std::ostream& os, const surface& s, encoding enc
     buf.resize(80, ' ');
     put_u32(buf, static_cast<std::uint32_t>(s.faces.size()));
     constexpr std::size_t chunk = 1 << 16;
-    for (const tri_indices& t : s.faces) {
-        const stl_facet facet = make_stl_facet(s, t);
+    const attribute_column* words = find_attribute(s, "stl_attribute", attribute_domain::face);
+    if (words && words->width != 1) words = nullptr;
+    for (std::size_t f = 0; f < s.faces.size(); ++f) {
+        const stl_facet facet = make_stl_facet(s, s.faces[f]);
         for (float v : facet.normal) put_u32(buf, std::bit_cast<std::uint32_t>(v));
         for (const auto& corner : facet.corners)
             for (float v : corner) put_u32(buf, std::bit_cast<std::uint32_t>(v));
-        buf.append(2, '\0'); // attribute byte count
+        const auto word = static_cast<std::uint16_t>(
+            words ? representable(scalar_type::uint16, words->values[f]) : 0.0);
+        buf.push_back(static_cast<char>(word & 0xff));
+        buf.push_back(static_cast<char>(word >> 8));
         if (buf.size() >= chunk) {
             os.write(buf.data(), static_cast<std::streamsize>(buf.size()));
             buf.clear();
@@ -360,6 +381,14 @@ inline surface parse_stl(std::string_view data, std::string_view source,
 
 inline surface read_stl(const std::filesystem::path& path, const read_options& options = {}) {
     return parse_stl(detail::read_file(path), path.string(), options);
+}
+
+/// Attributes that STL output cannot hold: all but the facets' attribute word (binary).
+inline std::vector<std::string> stl_unstored_attributes(const surface& s, encoding enc) {
+    return detail::unstored_attributes(s, [&](const attribute_column& a) {
+        return enc == encoding::binary && a.name == "stl_attribute" &&
+               a.domain == attribute_domain::face && a.width == 1;
+    });
 }
 
 /// Writes single-precision STL with per-facet normals computed from the corners.

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <charconv>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
@@ -14,16 +15,60 @@
 #include <string>
 #include <string_view>
 #include <system_error>
+#include <utility>
 #include <vector>
 
 namespace idas::io {
+
+/// How a file stores a value; attributes are written back with the type they were read with.
+enum class scalar_type : std::uint8_t {
+    int8,
+    uint8,
+    int16,
+    uint16,
+    int32,
+    uint32,
+    float32,
+    float64
+};
+
+/// What an attribute's values belong to. A corner value belongs to one face's use of a
+/// vertex (OBJ `vt`/`vn` indices, PLY `texcoord` lists), so a vertex on a texture seam can
+/// carry a different value in each face around it.
+enum class attribute_domain : std::uint8_t { vertex, face, corner };
+
+/// One attribute column read from a file. Values are stored as doubles, which hold every
+/// value of every scalar_type exactly, element after element (`width` values each; a corner
+/// column holds 3 elements per face, in the face's corner order). A corner value may be
+/// NaN where the file gives none (an OBJ face without `vt` among faces with them).
+struct attribute_column {
+    std::string name;
+    attribute_domain domain = attribute_domain::vertex;
+    scalar_type type = scalar_type::float64;
+    std::uint32_t width = 1;
+    std::vector<double> values;
+    /// Names of the values of a tag column (OBJ `usemtl` and `g` names): value i is labels[i].
+    std::vector<std::string> labels;
+
+    std::size_t elements() const noexcept { return width == 0 ? 0 : values.size() / width; }
+};
 
 /// A triangle soup as stored in a file: positions and 0-based corner indices. Readers
 /// guarantee every index is in range and no face repeats a vertex; they do not check
 /// manifoldness (the mesh layer does).
 struct surface {
+    surface() = default;
+    /// Positions and faces only, as the editing algorithms hand them back (to_arrays()).
+    surface(std::vector<vec3> v, std::vector<tri_indices> f)
+        : vertices(std::move(v))
+        , faces(std::move(f)) {}
+
     std::vector<vec3> vertices;
     std::vector<tri_indices> faces;
+    /// Everything else the file carries per vertex, face or corner (read_options::attributes).
+    std::vector<attribute_column> attributes;
+    /// Lines a writer of the same format repeats verbatim (OBJ `mtllib`).
+    std::vector<std::string> header_lines;
     /// Faces the reader left out: STL facets whose corners weld into fewer than three
     /// vertices (STL stores positions only, so such a facet cannot be told apart from a
     /// degenerate one). Other readers refuse degenerate faces instead.
@@ -37,7 +82,60 @@ struct read_options {
     /// STL stores every triangle corner separately; merge corners with exactly equal
     /// coordinates into one vertex so the result is an indexed mesh.
     bool weld_stl = true;
+    /// Read texture coordinates, normals, colours, tags and other properties into
+    /// surface::attributes; when false they are skipped (positions and faces only).
+    bool attributes = true;
 };
+
+/// The attribute called `name` in `domain`, or nullptr.
+inline attribute_column* find_attribute(surface& s, std::string_view name,
+                                        attribute_domain domain) noexcept {
+    for (auto& a : s.attributes)
+        if (a.name == name && a.domain == domain) return &a;
+    return nullptr;
+}
+inline const attribute_column* find_attribute(const surface& s, std::string_view name,
+                                              attribute_domain domain) noexcept {
+    return find_attribute(const_cast<surface&>(s), name, domain);
+}
+
+inline const char* to_string(scalar_type t) noexcept {
+    constexpr const char* names[] = {"int8",  "uint8",  "int16",   "uint16",
+                                     "int32", "uint32", "float32", "float64"};
+    return names[static_cast<int>(t)];
+}
+inline const char* to_string(attribute_domain d) noexcept {
+    constexpr const char* names[] = {"vertex", "face", "corner"};
+    return names[static_cast<int>(d)];
+}
+
+/// The nearest value of type t to x (integers rounded and clamped, float32 rounded), as a
+/// double: what interpolated values become before they are stored or written.
+inline double representable(scalar_type t, double x) noexcept {
+    const auto clamp_round = [&](double lo, double hi) {
+        if (std::isnan(x)) return 0.0;
+        return std::clamp(std::nearbyint(x), lo, hi);
+    };
+    switch (t) {
+    case scalar_type::int8:
+        return clamp_round(-128, 127);
+    case scalar_type::uint8:
+        return clamp_round(0, 255);
+    case scalar_type::int16:
+        return clamp_round(-32768, 32767);
+    case scalar_type::uint16:
+        return clamp_round(0, 65535);
+    case scalar_type::int32:
+        return clamp_round(-2147483648.0, 2147483647.0);
+    case scalar_type::uint32:
+        return clamp_round(0, 4294967295.0);
+    case scalar_type::float32:
+        return std::isfinite(x) ? static_cast<double>(static_cast<float>(x)) : x;
+    case scalar_type::float64:
+        return x;
+    }
+    return x;
+}
 
 /// Encoding for the formats that have both (PLY, STL).
 enum class encoding { ascii, binary };
@@ -299,6 +397,28 @@ inline void check_writable(const surface& s, std::string_view target) {
         if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2])
             fail(target, "face " + std::to_string(f) + " is degenerate (repeats a vertex)");
     }
+    for (const attribute_column& a : s.attributes) {
+        const std::size_t expected = a.domain == attribute_domain::vertex ? s.vertices.size()
+                                     : a.domain == attribute_domain::face ? s.faces.size()
+                                                                          : 3 * s.faces.size();
+        if (a.width == 0 || a.values.size() != expected * a.width)
+            fail(target, std::string(to_string(a.domain)) + " attribute \"" + a.name + "\" has " +
+                             std::to_string(a.values.size()) + " values, expected " +
+                             std::to_string(expected) + " x " + std::to_string(a.width));
+        if (a.name.empty() || a.name.find_first_of(" \t\r\n\"") != std::string::npos)
+            fail(target,
+                 "attribute name " + io::detail::quoted(a.name) + " is empty or holds white space");
+    }
+}
+
+/// The names of the attributes that `kept(column)` says a format cannot store, for the
+/// writers' warnings ("name (domain)").
+template <class Kept>
+std::vector<std::string> unstored_attributes(const surface& s, Kept&& kept) {
+    std::vector<std::string> out;
+    for (const attribute_column& a : s.attributes)
+        if (!kept(a)) out.push_back(a.name + " (" + to_string(a.domain) + ")");
+    return out;
 }
 
 /// Buffered text output: formats numbers with std::to_chars into a local buffer and
