@@ -45,6 +45,12 @@ struct carried_values {
     carried_values() {}        // the arrays stay uninitialised until filled
 };
 
+/// The cache of an operation that moves a vertex: where to, and what it carries there.
+struct placed_values {
+    vec3 position;
+    carried_values carried;
+};
+
 struct attribute_transfer_options {
     bool keep_boundary = false;    // boundary vertices never move nor vanish
     double feature_angle_deg = -1; // dihedral angle above which an edge is kept; <0: none

@@ -283,10 +283,7 @@ struct remesh_collapse_spec : detail::with_invariants<Extra...> {
         const auto [a, b] = m.edge_vertices(t);
         return squared_norm(m.position(a) - m.position(b)); // shortest first
     }
-    struct collapse_cache {
-        vec3 position;
-        carried_values carried; // the file's attributes there
-    };
+    using collapse_cache = placed_values; // the position, and the file's attributes there
     template <class Mesh>
     std::optional<collapse_cache> before(op::collapse_edge, const Mesh& m,
                                          const typename Mesh::tuple& t) const {
@@ -483,10 +480,7 @@ struct remesh_smooth_spec : detail::with_invariants<Extra...> {
         if (movable(m, v) && !std::ranges::empty(m.vertex_faces(v))) // not unreferenced
             push(op::smooth_vertex{}, m.tuple_from_vertex(v));
     }
-    struct smooth_cache {
-        vec3 position;
-        carried_values carried; // the file's attributes there
-    };
+    using smooth_cache = placed_values; // the position, and the file's attributes there
     template <class Mesh>
     std::optional<smooth_cache> before(op::smooth_vertex, const Mesh& m,
                                        const typename Mesh::tuple& t) const {

@@ -32,10 +32,7 @@ struct shortest_edge_collapse_spec : collapse_schedule {
         return squared_norm(m.position(a) - m.position(b));
     }
 
-    struct collapse_cache {
-        vec3 position;
-        carried_values carried; // the file's attributes there
-    };
+    using collapse_cache = placed_values; // the position, and the file's attributes there
 
     template <class Mesh>
     std::optional<collapse_cache> before(op::collapse_edge, const Mesh& m,
