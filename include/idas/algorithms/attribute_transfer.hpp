@@ -20,6 +20,7 @@
 #include <idas/core/aabb_tree.hpp>
 #include <idas/core/attribute.hpp>
 #include <idas/core/geometry.hpp>
+#include <idas/invariants/no_normal_flip.hpp>
 #include <idas/io/surface.hpp>
 #include <idas/ops/operation.hpp>
 
@@ -28,6 +29,7 @@
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <numbers>
 #include <string>
 #include <vector>
 
@@ -221,7 +223,7 @@ public:
                 c.values[vertex_.size() + k] = m.attribute(corner_[k])[t.fid][slot];
             return true;
         }
-        interpolate(m, p, m.connectivity().vertex_faces(a), m.connectivity().vertex_faces(b), c);
+        interpolate(m, p, c, m.connectivity().vertex_faces(a), m.connectivity().vertex_faces(b));
         return true;
     }
 
@@ -252,7 +254,7 @@ public:
     bool smooth_before(const Mesh& m, index_t v, const vec3& p, carried_values& c) const {
         if (constrained(m, v)) return false;
         c.star_size = 0;
-        interpolate(m, p, m.connectivity().vertex_faces(v), m.connectivity().vertex_faces(v), c);
+        interpolate(m, p, c, m.connectivity().vertex_faces(v));
         return true;
     }
     template <class Mesh>
@@ -318,16 +320,8 @@ public:
         const auto g = m.switch_face(t);
         if (!g) return false;
         const auto [a, b] = m.edge_vertices(t);
-        for (auto h : face_)
-            if (m.attribute(h)[t.fid] != m.attribute(h)[g->fid]) return false;
-        for (auto h : corner_) {
-            const auto col = m.attribute(h);
-            for (index_t v : {a, b})
-                if (std::bit_cast<std::uint64_t>(col[t.fid][slot_of(m, t.fid, v)]) !=
-                    std::bit_cast<std::uint64_t>(col[g->fid][slot_of(m, g->fid, v)]))
-                    return false;
-        }
-        return true;
+        return !tags_differ(m, t.fid, g->fid) && !corners_differ(m, t.fid, g->fid, a) &&
+               !corners_differ(m, t.fid, g->fid, b);
     }
 
     /// After a swap of faces f and h (same chart, so a vertex has one value in both):
@@ -398,9 +392,21 @@ private:
     /// tag border or a seam, and so is the new vertex.
     template <class Mesh>
     bool sides_differ(const Mesh& m, index_t f, index_t g, index_t nv) const {
+        return tags_differ(m, f, g) || corners_differ(m, f, g, nv);
+    }
+
+    /// Faces f and g carry different tags: the edge between them is a tag border.
+    template <class Mesh>
+    bool tags_differ(const Mesh& m, index_t f, index_t g) const {
         for (auto h : face_)
             if (m.attribute(h)[f] != m.attribute(h)[g]) return true;
-        const index_t sf = slot_of(m, f, nv), sg = slot_of(m, g, nv);
+        return false;
+    }
+
+    /// Vertex v has different corner values (bit for bit) in faces f and g: a seam.
+    template <class Mesh>
+    bool corners_differ(const Mesh& m, index_t f, index_t g, index_t v) const {
+        const index_t sf = slot_of(m, f, v), sg = slot_of(m, g, v);
         for (auto h : corner_) {
             const auto col = m.attribute(h);
             if (std::bit_cast<std::uint64_t>(col[f][sf]) !=
@@ -408,6 +414,15 @@ private:
                 return true;
         }
         return false;
+    }
+
+    /// The dihedral angle between faces f and h is above the feature angle.
+    template <class Mesh>
+    bool sharp_between(const Mesh& m, index_t f, index_t h) const {
+        const vec3 n1 = face_normal_unnormalised(m, f), n2 = face_normal_unnormalised(m, h);
+        const double l = norm(n1) * norm(n2);
+        return l > 0 &&
+               dot(n1, n2) / l < std::cos(options_.feature_angle_deg * std::numbers::pi / 180.0);
     }
 
     template <class Mesh>
@@ -418,23 +433,13 @@ private:
         int n = 0;
         for (std::size_t i = 0; i < r.cells.size() && n < 2; ++i)
             if (r.cells[i].fid == r.origins[i]) sides[n++] = r.cells[i].fid;
-        if (n < 2) return false;
-        const auto normal = [&](index_t f) {
-            const auto& fv = m.face_vertices(f);
-            return cross(m.position(fv[1]) - m.position(fv[0]),
-                         m.position(fv[2]) - m.position(fv[0]));
-        };
-        const vec3 n1 = normal(sides[0]), n2 = normal(sides[1]);
-        const double l = norm(n1) * norm(n2);
-        return l > 0 && dot(n1, n2) / l <
-                            std::cos(options_.feature_angle_deg * 3.14159265358979323846 / 180.0);
+        return n == 2 && sharp_between(m, sides[0], sides[1]);
     }
 
-    /// Barycentric interpolation at p in the old triangle nearest to it among `first`
-    /// and `second` (the faces around the collapsed edge's ends, or one star twice).
-    template <class Mesh, class Faces>
-    void interpolate(const Mesh& m, const vec3& p, const Faces& first, const Faces& second,
-                     carried_values& c) const {
+    /// Barycentric interpolation at p in the old triangle nearest to it among `stars`
+    /// (the faces around the collapsed edge's ends, or the moved vertex's star).
+    template <class Mesh, class... Stars>
+    void interpolate(const Mesh& m, const vec3& p, carried_values& c, const Stars&... stars) const {
         double best = std::numeric_limits<double>::infinity();
         index_t face = invalid_index;
         std::array<double, 3> w{1, 0, 0};
@@ -445,8 +450,9 @@ private:
             const double d = squared_norm(q - p);
             if (d < best) best = d, face = f, w = barycentric(q, x, y, z);
         };
-        for (index_t f : first) consider(f);
-        for (index_t f : second) consider(f);
+        (..., [&](const auto& star) {
+            for (index_t f : star) consider(f);
+        }(stars));
         const auto& fv = m.face_vertices(face);
         std::size_t i = 0;
         for (auto h : vertex_) {
@@ -522,8 +528,6 @@ private:
     template <class Mesh>
     void mark_constraints(Mesh& m) {
         auto fixed = m.attribute(constrained_);
-        const double cos_limit =
-            std::cos(options_.feature_angle_deg * 3.14159265358979323846 / 180.0);
         m.for_each_edge([&](const typename Mesh::tuple& t) {
             const auto [a, b] = m.edge_vertices(t);
             const auto g = m.switch_face(t);
@@ -532,25 +536,10 @@ private:
                 return;
             }
             const index_t f = t.fid, h = g->fid;
-            for (auto col : face_)
-                if (m.attribute(col)[f] != m.attribute(col)[h]) fixed.raw(a) = fixed.raw(b) = 1;
-            for (auto col : corner_) {
-                const auto x = m.attribute(col);
-                for (index_t v : {a, b})
-                    if (std::bit_cast<std::uint64_t>(x[f][slot_of(m, f, v)]) !=
-                        std::bit_cast<std::uint64_t>(x[h][slot_of(m, h, v)]))
-                        fixed.raw(v) = 1;
-            }
-            if (options_.feature_angle_deg >= 0) {
-                const auto normal = [&](index_t face) {
-                    const auto& fv = m.face_vertices(face);
-                    return cross(m.position(fv[1]) - m.position(fv[0]),
-                                 m.position(fv[2]) - m.position(fv[0]));
-                };
-                const vec3 n1 = normal(f), n2 = normal(h);
-                const double l = norm(n1) * norm(n2);
-                if (l > 0 && dot(n1, n2) / l < cos_limit) fixed.raw(a) = fixed.raw(b) = 1;
-            }
+            if (tags_differ(m, f, h) || (options_.feature_angle_deg >= 0 && sharp_between(m, f, h)))
+                fixed.raw(a) = fixed.raw(b) = 1;
+            for (index_t v : {a, b})
+                if (corners_differ(m, f, h, v)) fixed.raw(v) = 1;
         });
     }
 

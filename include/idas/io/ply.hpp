@@ -379,11 +379,11 @@ private:
             status = parse_double(token, value);
         }
         if (status == parse_status::not_a_number) fail_here(quoted(token) + " is not a number");
-        if (status == parse_status::out_of_range ||
-            representable(scalar_type(type), value) != value)
-            if (!std::isnan(value) || ply_is_integer(type))
-                fail_here(quoted(token) + " does not fit in a PLY " +
-                          ply_type_name(scalar_type(type)));
+        // NaN is a float value like any other; every other value must be one of its type's.
+        const bool fits = std::isnan(value) ? !ply_is_integer(type)
+                                            : representable(scalar_type(type), value) == value;
+        if (status == parse_status::out_of_range || !fits)
+            fail_here(quoted(token) + " does not fit in a PLY " + ply_type_name(scalar_type(type)));
         return value;
     }
 
