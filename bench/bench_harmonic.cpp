@@ -4,17 +4,25 @@
 //
 //   bench_harmonic [--points N] [--seed S] [--input FILE] [--mode reduced|complete]
 //                  [--threads T] [--rounds R] [--seed-above X] [--no-keep-max]
-//                  [--delaunay-only] [--lock try|own-part] [--parts-per-thread K]
+//                  [--delaunay-only] [--cgal-only] [--lock try|own-part] [--parts-per-thread K]
+//
+// --delaunay-only: idas::cgal::delaunay_tetrahedralization (CGAL's triangulation, duplicates
+// merged, numbered by the points) on --threads threads; --cgal-only: CGAL's triangulation
+// alone (its Parallel_tag insertion when --threads > 1), the peer of the scaling targets.
 #if IDAS_BENCH_WITH_CGAL
 #include <idas/algorithms/harmonic_triangulation.hpp>
 #include <idas/cgal/delaunay.hpp>
 #include <idas/io/points.hpp>
 
+#include <tbb/global_control.h>
+
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <ctime>
+#include <numeric>
 #include <string>
 
 namespace {
@@ -36,7 +44,7 @@ int main(int argc, char** argv) {
     std::string input, mode = "complete";
     unsigned threads = 1, rounds = idas::algorithms::harmonic_options{}.rounds;
     double seed_above = idas::algorithms::harmonic_options{}.seed_above;
-    bool keep_max = true, delaunay_only = false;
+    bool keep_max = true, delaunay_only = false, cgal_only = false;
     std::string lock = "own-part";
     unsigned parts_per_thread = 1;
     for (int i = 1; i < argc; ++i) {
@@ -70,6 +78,8 @@ int main(int argc, char** argv) {
             keep_max = false;
         else if (a == "--delaunay-only")
             delaunay_only = true;
+        else if (a == "--cgal-only")
+            cgal_only = true;
         else {
             std::fprintf(stderr, "unknown argument %s\n", a.c_str());
             return 2;
@@ -83,13 +93,29 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "--mode must be reduced or complete\n");
         return 2;
     }
+    // CGAL's parallel insertion runs on oneTBB: as many threads as asked for, even more
+    // than the cores (a contention run).
+    const tbb::global_control parallelism(tbb::global_control::max_allowed_parallelism,
+                                          std::max(1u, threads));
     try {
         const std::vector<idas::vec3> points =
             input.empty() ? idas::io::gaussian_points(n, seed) : idas::io::read_points(input);
 
         auto t0 = std::chrono::steady_clock::now();
+        if (cgal_only) { // CGAL's triangulation alone: parallel (Parallel_tag) when T > 1
+            std::vector<idas::index_t> all(points.size());
+            std::iota(all.begin(), all.end(), idas::index_t{0});
+            const double cpu0 = cpu_seconds();
+            std::size_t tets = 0;
+            idas::cgal::detail::triangulate(
+                points, all, threads, [&](const auto& dt) { tets = dt.number_of_finite_cells(); });
+            std::printf("{\"points\":%zu,\"threads\":%u,\"cgal_delaunay_seconds\":%.3f,"
+                        "\"cgal_delaunay_cpu_seconds\":%.3f,\"tets\":%zu}\n",
+                        points.size(), threads, seconds_since(t0), cpu_seconds() - cpu0, tets);
+            return 0;
+        }
         const double delaunay_cpu0 = cpu_seconds();
-        auto dt = idas::cgal::delaunay_tetrahedralization(points);
+        auto dt = idas::cgal::delaunay_tetrahedralization(points, threads);
         const double delaunay_seconds = seconds_since(t0);
         const double delaunay_cpu = cpu_seconds() - delaunay_cpu0;
         if (delaunay_only) {

@@ -66,11 +66,14 @@ idas::algorithms::remeshing_report remesh_with(Mesh& m,
 
 template <class Mesh>
 int run_remesh(const remesh_arguments& a) {
-    const stopwatch total;
+    phase_times phases;
     idas::io::format_of(a.out); // an unknown output extension fails before any work
     check_remesh_options(a);
+    const tbb::global_control parallelism(tbb::global_control::max_allowed_parallelism, a.threads);
     const idas::io::surface s = load(a.in, !a.drop_attributes);
+    phases.lap("read");
     const mesh_stats in_stats = compute_stats(s);
+    phases.lap("input_statistics");
     std::optional<Mesh> built;
     try {
         built.emplace(s.vertices, s.faces);
@@ -78,6 +81,7 @@ int run_remesh(const remesh_arguments& a) {
         throw idas::input_error(a.in + ": " + e.what());
     }
     auto& m = *built;
+    phases.lap("build");
     idas::algorithms::remeshing_options o;
     o.target_length = a.absolute ? a.edge_length : a.edge_length * in_stats.diagonal;
     if (!(o.target_length > 0) || !std::isfinite(o.target_length))
@@ -95,6 +99,7 @@ int run_remesh(const remesh_arguments& a) {
     // The file's attributes ride along; boundary and features are the remesher's own.
     carried_attributes carried;
     o.transfer = carried.attach(m, s, {});
+    phases.lap("attributes");
 
     idas::algorithms::remeshing_report r;
     if (a.envelope_option && a.envelope_option->count() > 0) {
@@ -113,14 +118,19 @@ int run_remesh(const remesh_arguments& a) {
                             : remesh_with<idas::lock::vertex_try_lock>(m, o, a.threads);
     }
 
+    phases.lap("remeshing", r.setup_seconds, r.tail_seconds);
     idas::io::surface result;
     std::tie(result.vertices, result.faces) = m.to_arrays();
     carried.export_to(m, result, s);
+    phases.lap("export");
     const mesh_stats out_stats = compute_stats(result);
+    phases.lap("output_statistics");
     const stopwatch check_clock;
     check_result("remesh", summary_of(in_stats.topo), summary_of(out_stats.topo));
     const double t_check = check_clock.seconds();
+    phases.lap("check");
     save(a.out, result, a.ascii);
+    phases.lap("write");
     if (a.as_json) {
         json j;
         j["input"] = a.in;
@@ -141,14 +151,23 @@ int run_remesh(const remesh_arguments& a) {
         j["attributes"] = attributes_json(result);
         j["seconds_algorithm"] = r.seconds;
         j["seconds_check"] = t_check;
-        j["seconds_total"] = total.seconds();
+        j["seconds_total"] = phases.total();
+        j["phases"] = phases.to_json();
+        static constexpr const char* kinds[] = {"split", "collapse", "swap", "smooth"};
+        for (std::size_t k = 0; k < 4; ++k)
+            j["remeshing_phases"][kinds[k]] = {{"seconds", r.phases[k].seconds},
+                                               {"setup", r.phases[k].setup_seconds},
+                                               {"serial_tail", r.phases[k].tail_seconds},
+                                               {"succeeded", r.phases[k].succeeded},
+                                               {"lock_failures", r.phases[k].lock_failures}};
         j["output_stats"] = stats_json(out_stats);
         fmt::print("{}\n", j.dump(2));
     } else {
         fmt::print("{}: {} -> {} faces, target edge length {:.6g}, {} iterations on {} thread{} in "
                    "{:.3f} s (result check {:.3f} s, {:.3f} s total)\n",
                    a.in, s.faces.size(), result.faces.size(), o.target_length, r.iterations,
-                   a.threads, a.threads == 1 ? "" : "s", r.seconds, t_check, total.seconds());
+                   a.threads, a.threads == 1 ? "" : "s", r.seconds, t_check, phases.total());
+        fmt::print("  seconds: {}\n", phases.to_text());
         fmt::print("  splits {}, collapses {}, swaps {}, smooths {}\n", r.splits, r.collapses,
                    r.swaps, r.smooths);
         fmt::print("{}\n", a.out);

@@ -46,7 +46,11 @@
 #include <idas/io/msh.hpp>
 #include <idas/io/points.hpp>
 #include <idas/io/vtu.hpp>
+#include <tbb/blocked_range.h>
 #include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+#include <tbb/parallel_sort.h>
 #endif
 
 #include <CLI/CLI.hpp>
@@ -120,6 +124,48 @@ private:
     std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
 };
 
+/// Wall time per phase of a command, in the order they ran (read, build, the algorithm's
+/// setup, main phase and serial tail, check, write, ...): `--json` reports them under
+/// "phases", the text output on one line, so users and benchmarks see where the time goes.
+class phase_times {
+public:
+    /// Ends the phase that is running under `name`.
+    void lap(std::string name) {
+        const double now = clock_.seconds();
+        phases_.emplace_back(std::move(name), now - last_);
+        last_ = now;
+    }
+    /// Ends a run of the executor, split as its report says: setup and serial tail on one
+    /// thread, the rest its main phase (named `name`).
+    void lap(const std::string& name, double setup_seconds, double tail_seconds) {
+        const double now = clock_.seconds(), spent = now - last_;
+        const double setup = std::min(setup_seconds, spent);
+        const double tail = std::min(tail_seconds, spent - setup);
+        phases_.emplace_back(name + "_setup", setup);
+        phases_.emplace_back(name, spent - setup - tail);
+        phases_.emplace_back(name + "_serial_tail", tail);
+        last_ = now;
+    }
+    double total() const { return clock_.seconds(); }
+    json to_json() const {
+        json j = json::object();
+        for (const auto& [name, seconds] : phases_) j[name] = seconds;
+        j["total"] = total();
+        return j;
+    }
+    std::string to_text() const {
+        std::string text;
+        for (const auto& [name, seconds] : phases_)
+            text += fmt::format("{}{} {:.3f}", text.empty() ? "" : ", ", name, seconds);
+        return text + fmt::format(" (total {:.3f} s)", total());
+    }
+
+private:
+    stopwatch clock_;
+    double last_ = 0;
+    std::vector<std::pair<std::string, double>> phases_;
+};
+
 // ---- statistics of a face list -------------------------------------------------------------
 
 struct min_mean_max {
@@ -183,7 +229,7 @@ mesh_stats compute_stats(const idas::io::surface& s) {
             keys.push_back(std::uint64_t{a} << 32 | b);
         }
     }
-    std::sort(keys.begin(), keys.end());
+    tbb::parallel_sort(keys.begin(), keys.end());
     std::vector<std::uint32_t> valence(nv, 0);
     std::vector<char> on_boundary(nv, 0);
     double sum_len = 0;
@@ -231,24 +277,43 @@ mesh_stats compute_stats(const idas::io::surface& s) {
     // Angles: atan2(|u x v|, u . v) is accurate for tiny and near-straight angles and
     // gives 0 (not NaN) for zero-length edges.
     constexpr double to_deg = 180.0 / std::numbers::pi;
-    double sum_min_angle = 0;
-    std::size_t n_faces = 0;
-    st.min_angle_deg = inf;
-    for (const auto& f : s.faces) {
-        if (!usable(f)) continue;
-        double face_min = inf;
-        for (int i = 0; i < 3; ++i) {
-            const vec3& p = s.vertices[f[i]];
-            const vec3 u = s.vertices[f[(i + 1) % 3]] - p, w = s.vertices[f[(i + 2) % 3]] - p;
-            face_min =
-                std::min(face_min, std::atan2(idas::norm(idas::cross(u, w)), idas::dot(u, w)));
-        }
-        const vec3 n =
-            idas::cross(s.vertices[f[1]] - s.vertices[f[0]], s.vertices[f[2]] - s.vertices[f[0]]);
-        if (idas::squared_norm(n) == 0) ++st.zero_area_faces;
-        st.min_angle_deg = std::min(st.min_angle_deg, face_min * to_deg);
-        sum_min_angle += face_min * to_deg, ++n_faces;
-    }
+    struct angles {
+        double sum_min = 0, min = inf;
+        std::size_t faces = 0, zero_area = 0;
+    };
+    // Blocks of faces in parallel, summed in a fixed tree: the same sum on any thread count.
+    using range = tbb::blocked_range<std::size_t>;
+    const angles a = tbb::parallel_deterministic_reduce(
+        range(0, s.faces.size(), 8192), angles{},
+        [&](const range& r, angles acc) {
+            for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                const auto& f = s.faces[i];
+                if (!usable(f)) continue;
+                double face_min = inf;
+                for (int k = 0; k < 3; ++k) {
+                    const vec3& p = s.vertices[f[k]];
+                    const vec3 u = s.vertices[f[(k + 1) % 3]] - p,
+                               w = s.vertices[f[(k + 2) % 3]] - p;
+                    face_min = std::min(face_min,
+                                        std::atan2(idas::norm(idas::cross(u, w)), idas::dot(u, w)));
+                }
+                const vec3 n = idas::cross(s.vertices[f[1]] - s.vertices[f[0]],
+                                           s.vertices[f[2]] - s.vertices[f[0]]);
+                if (idas::squared_norm(n) == 0) ++acc.zero_area;
+                acc.min = std::min(acc.min, face_min * to_deg);
+                acc.sum_min += face_min * to_deg, ++acc.faces;
+            }
+            return acc;
+        },
+        [](angles x, const angles& y) {
+            x.sum_min += y.sum_min, x.min = std::min(x.min, y.min);
+            x.faces += y.faces, x.zero_area += y.zero_area;
+            return x;
+        });
+    st.zero_area_faces = a.zero_area;
+    st.min_angle_deg = a.min;
+    const double sum_min_angle = a.sum_min;
+    const std::size_t n_faces = a.faces;
     if (n_faces > 0)
         st.mean_min_angle_deg = sum_min_angle / static_cast<double>(n_faces);
     else
@@ -475,15 +540,18 @@ struct carried_attributes {
 // ---- info ----------------------------------------------------------------------------------
 
 int run_info(const std::string& in, bool as_json) {
-    const stopwatch clock;
+    phase_times phases;
     const idas::io::surface s = load(in);
+    phases.lap("read");
     const mesh_stats st = compute_stats(s);
+    phases.lap("statistics");
     if (as_json) {
         json j;
         j["file"] = in;
         j.update(stats_json(st));
         j["attributes"] = attributes_json(s);
-        j["seconds"] = clock.seconds();
+        j["seconds"] = phases.total();
+        j["phases"] = phases.to_json();
         fmt::print("{}\n", j.dump(2));
     } else {
         fmt::print("{}\n", in);
@@ -775,15 +843,18 @@ int run_decimate(const std::string& in, const std::string& out, const std::strin
                  const decimate_keeping& keeping) {
     using namespace idas::algorithms;
     using mesh_t = Mesh;
-    const stopwatch total;
+    phase_times phases;
     idas::io::format_of(out); // an unknown output extension fails before any work
     check_threads(threads);
+    // Reading, checking and writing use oneTBB: on as many threads as the algorithm.
+    const tbb::global_control parallelism(tbb::global_control::max_allowed_parallelism, threads);
     if (ratio && !(*ratio > 0 && *ratio <= 1)) throw idas::input_error("--ratio must be in (0, 1]");
     if (!ratio && faces < 0) throw idas::input_error("--faces must be non-negative");
     if (keeping.feature_angle_option && keeping.feature_angle_option->count() > 0 &&
         !(keeping.feature_angle >= 0 && keeping.feature_angle <= 180))
         throw idas::input_error("--feature-angle must be between 0 and 180 degrees");
     const idas::io::surface s = load(in, !keeping.drop_attributes);
+    phases.lap("read");
     std::optional<mesh_t> built;
     try {
         built.emplace(s.vertices, s.faces);
@@ -791,6 +862,7 @@ int run_decimate(const std::string& in, const std::string& out, const std::strin
         throw idas::input_error(in + ": " + e.what());
     }
     mesh_t& m = *built;
+    phases.lap("build");
     const auto input_faces = static_cast<std::int64_t>(m.n_faces());
     const std::int64_t target =
         ratio ? static_cast<std::int64_t>(std::llround(*ratio * double(input_faces))) : faces;
@@ -800,6 +872,7 @@ int run_decimate(const std::string& in, const std::string& out, const std::strin
     keep.keep_boundary = keeping.keep_boundary;
     keep.feature_angle_deg = keeping.feature_angle;
     const attribute_transfer* transfer = carried.attach(m, s, keep);
+    phases.lap("attributes");
 
     idas::run_report r;
     const auto run = [&]<class Lock>(std::type_identity<Lock>) {
@@ -813,14 +886,18 @@ int run_decimate(const std::string& in, const std::string& out, const std::strin
         run(std::type_identity<idas::lock::deterministic_rounds>{});
     else
         run(std::type_identity<idas::lock::vertex_try_lock>{});
+    phases.lap("decimation", r.setup_seconds, r.tail_seconds);
 
     idas::io::surface result;
     std::tie(result.vertices, result.faces) = m.to_arrays();
     carried.export_to(m, result, s);
+    phases.lap("export");
     const stopwatch check_clock;
     check_result("decimate", idas::summarize_surface(s.vertices.size(), s.faces), result);
     const double t_check = check_clock.seconds();
+    phases.lap("check");
     save(out, result, ascii);
+    phases.lap("write");
     const auto output_faces = static_cast<std::int64_t>(result.faces.size());
     if (as_json) {
         json j;
@@ -839,7 +916,8 @@ int run_decimate(const std::string& in, const std::string& out, const std::strin
         j["constrained_vertices"] = transfer ? carried.transfer.constrained_count(m) : 0;
         j["seconds_algorithm"] = r.seconds;
         j["seconds_check"] = t_check;
-        j["seconds_total"] = total.seconds();
+        j["seconds_total"] = phases.total();
+        j["phases"] = phases.to_json();
         j["collapses"] = r.succeeded;
         j["refused"] = r.refused;
         j["stale_entries"] = r.stale;
@@ -851,9 +929,10 @@ int run_decimate(const std::string& in, const std::string& out, const std::strin
                    "(result check {:.3f} s, {:.3f} s total)\n",
                    in, input_faces, output_faces, target, algorithm, threads,
                    threads == 1 ? "" : "s", deterministic ? ", deterministic" : "", backend,
-                   r.seconds, t_check, total.seconds());
+                   r.seconds, t_check, phases.total());
         fmt::print("  collapses {}, refused {}, stale queue entries {}, lock failures {}\n",
                    r.succeeded, r.refused, r.stale, r.lock_failures);
+        fmt::print("  seconds: {}\n", phases.to_text());
         fmt::print("  written to {}\n", out);
     }
     return 0;

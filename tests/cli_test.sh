@@ -208,6 +208,10 @@ for alg in qslim shortest-edge; do
         expect_field "decimate $alg t=$t" "d['threads']" "$t"
         expect_field "decimate $alg t=$t" "abs(d['output_faces'] - 6945) <= 69" True
         expect_field "decimate $alg t=$t" "d['seconds_algorithm'] <= d['seconds_total']" True
+        expect_field "decimate $alg t=$t phases" "list(d['phases'])" \
+            "['read', 'build', 'attributes', 'decimation_setup', 'decimation', 'decimation_serial_tail', 'export', 'check', 'write', 'total']"
+        expect_field "decimate $alg t=$t phases" \
+            "min(d['phases'].values()) >= 0 and sum(v for k, v in d['phases'].items() if k != 'total') <= d['phases']['total'] + 1e-6" True
         run info "$TMP/dec_${alg}_$t.ply" --json
         expect_field "decimated $alg t=$t" "d['euler_characteristic']" -3
         expect_field "decimated $alg t=$t" "d['boundary_loops']" 5
@@ -291,6 +295,11 @@ if cmp -s "$TMP/rdet1.ply" "$TMP/rdet3.ply"; then ok; else fail "remesh --determ
 # ---- remesh ----------------------------------------------------------------------------------
 
 run remesh "$DATA/bunny.off" "$TMP/rem.ply" --edge-length 0.02 --iterations 3 --threads 2 --json
+expect_field "remesh phases" "[k for k in d['phases'] if k.startswith('remeshing')]" \
+    "['remeshing_setup', 'remeshing', 'remeshing_serial_tail']"
+expect_field "remesh phases" "abs(d['phases']['remeshing_setup'] + d['phases']['remeshing'] + d['phases']['remeshing_serial_tail'] - d['seconds_algorithm']) < 0.05" True
+expect_field "remesh phases per kind" "sorted(d['remeshing_phases'])" "['collapse', 'smooth', 'split', 'swap']"
+expect_field "remesh phases per kind" "sum(p['succeeded'] for p in d['remeshing_phases'].values()) == d['splits'] + d['collapses'] + d['swaps'] + d['smooths']" True
 expect_rc "remesh" 0
 expect_one_json "remesh"
 expect_field "remesh" "d['threads']" 2
@@ -446,6 +455,8 @@ expect_field "harmonic gaussian" "d['mode']" complete
 expect_field "harmonic gaussian" "d['mean_harmonic_index_after'] < d['mean_harmonic_index_before']" True
 expect_field "harmonic gaussian" "d['max_energy_after'] <= d['max_energy_before']" True
 expect_field "harmonic gaussian" "d['flips'] > 0 and d['smoothed'] > 0" True
+expect_field "harmonic phases" "[k for k in d['phases'] if k in ('generate', 'delaunay', 'build', 'flipping', 'check', 'write')]" \
+    "['generate', 'delaunay', 'build', 'flipping', 'check', 'write']"
 if [ -s "$TMP/h.msh" ]; then ok; else fail "harmonic gaussian: no output"; fi
 run info "$TMP/h.msh" --json
 expect_rc "harmonic output reads back" 0

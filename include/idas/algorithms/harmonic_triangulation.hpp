@@ -704,7 +704,8 @@ struct harmonic_report {
     std::uint64_t flips = 0, smoothed = 0, attempted = 0;
     std::uint64_t lock_failures = 0, deferred_to_serial = 0, crossed_parts = 0;
     double seconds = 0, flip_seconds = 0, smooth_seconds = 0;
-    double owner_seconds = 0; // lock-free phases of own_part_first
+    double owner_seconds = 0;                   // lock-free phases of own_part_first
+    double setup_seconds = 0, tail_seconds = 0; // on one thread, summed over the phases
 };
 
 /// The schedules: both modes start with 3-2 swaps to convergence (they are the cheapest
@@ -741,6 +742,7 @@ struct harmonic_triangulation {
             counter += r.succeeded, rep.attempted += r.attempted, seconds += r.seconds;
             rep.lock_failures += r.lock_failures, rep.deferred_to_serial += r.deferred_to_serial;
             rep.crossed_parts += r.crossed_parts, rep.owner_seconds += r.owner_seconds;
+            rep.setup_seconds += r.setup_seconds, rep.tail_seconds += r.tail_seconds;
         };
         if (o.mode == harmonic_mode::reduced) {
             using driver =

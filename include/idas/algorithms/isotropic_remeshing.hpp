@@ -26,6 +26,7 @@
 #include <boost/container/small_vector.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <exception>
 #include <limits>
@@ -532,6 +533,12 @@ struct remeshing_report {
     unsigned iterations = 0;
     std::uint64_t splits = 0, collapses = 0, swaps = 0, smooths = 0;
     double seconds = 0;
+    /// Split, collapse, swap and smooth, each summed over the iterations (wall time, setup
+    /// and serial tail per kind: where a parallel run loses its speedup).
+    std::array<run_report, 4> phases{};
+    /// On one thread: marking frozen vertices and (serial runs) building the projection
+    /// tree, plus every phase's setup and serial tail.
+    double setup_seconds = 0, tail_seconds = 0;
 };
 
 /// The remeshing schedule: split, collapse, swap, smooth, repeated until an iteration
@@ -562,6 +569,7 @@ struct isotropic_remeshing {
     static remeshing_report run_observed(Mesh& m, const remeshing_options& o,
                                          const exec_options& exec, Observer&& observer,
                                          Extra... extra) {
+        const idas::detail::stopwatch preparing;
         remeshing_state s;
         s.L = o.target_length;
         const temporary_attribute frozen(
@@ -589,6 +597,7 @@ struct isotropic_remeshing {
         }
         mark_frozen(m, s, o);
 
+        const double prepared = preparing.seconds();
         remesh_split_spec<Extra...> split{{std::tuple<Extra...>(extra...)}, s};
         remesh_collapse_spec<Extra...> collapse{{std::tuple<Extra...>(extra...)}, s};
         remesh_swap_spec<Extra...> swap{{std::tuple<Extra...>(extra...)}, s};
@@ -600,7 +609,11 @@ struct isotropic_remeshing {
         report.iterations = r.iterations;
         report.splits = r.phases[0].succeeded, report.collapses = r.phases[1].succeeded;
         report.swaps = r.phases[2].succeeded, report.smooths = r.phases[3].succeeded;
-        report.seconds = r.seconds;
+        report.seconds = r.seconds + prepared;
+        report.phases = r.phases;
+        report.setup_seconds = prepared;
+        for (const run_report& p : r.phases)
+            report.setup_seconds += p.setup_seconds, report.tail_seconds += p.tail_seconds;
         return report;
     }
 

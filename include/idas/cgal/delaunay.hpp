@@ -10,9 +10,14 @@
 #include <CGAL/Delaunay_triangulation_3.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Triangulation_vertex_base_with_info_3.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <numeric>
 #include <string>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -25,80 +30,148 @@ struct delaunay_result {
     std::vector<index_t> index_of; // input point i is vertices[index_of[i]] (invalid: a duplicate)
 };
 
-/// Delaunay tetrahedralization of `points`. Exact duplicates are merged (the first copy
-/// stays). Throws input_error if there are fewer than four distinct points or all are
-/// coplanar (no tet at all).
-inline delaunay_result delaunay_tetrahedralization(const std::vector<vec3>& points) {
+namespace detail {
+
+/// The order `points` are kept in: by coordinates, so equal points are adjacent and only
+/// the first copy (lowest index) of each stays.
+inline std::vector<index_t> distinct_points(const std::vector<vec3>& points) {
+    std::vector<index_t> order(points.size());
+    std::iota(order.begin(), order.end(), index_t{0});
+    const auto less = [&](index_t a, index_t b) {
+        const vec3 &p = points[a], &q = points[b];
+        return std::tie(p.x, p.y, p.z, a) < std::tie(q.x, q.y, q.z, b);
+    };
+    tbb::parallel_sort(order.begin(), order.end(), less);
+    std::vector<index_t> kept;
+    kept.reserve(order.size());
+    for (std::size_t i = 0; i < order.size(); ++i)
+        if (i == 0 || !(points[order[i]] == points[order[i - 1]])) kept.push_back(order[i]);
+    std::sort(kept.begin(), kept.end());
+    return kept;
+}
+
+/// CGAL's triangulation of the points `kept` (by index), on `threads` threads when CGAL
+/// runs on oneTBB (CGAL_LINKED_WITH_TBB: its Parallel_tag insertion, which locks a grid of
+/// cells over the bounding box). Calls `take(dt)` with the triangulation.
+template <class Take>
+void triangulate(const std::vector<vec3>& points, const std::vector<index_t>& kept,
+                 unsigned threads, Take&& take) {
     using K = CGAL::Exact_predicates_inexact_constructions_kernel;
     using Vb = CGAL::Triangulation_vertex_base_with_info_3<index_t, K>;
+    const auto input = [&] {
+        std::vector<std::pair<K::Point_3, index_t>> in(kept.size());
+        tbb::parallel_for(std::size_t{0}, kept.size(), [&](std::size_t i) {
+            const vec3& p = points[kept[i]];
+            in[i] = {K::Point_3(p.x, p.y, p.z), kept[i]};
+        });
+        return in;
+    };
+#ifdef CGAL_LINKED_WITH_TBB
+    if (threads > 1) {
+        using Cb = CGAL::Delaunay_triangulation_cell_base_3<K>;
+        using Tds = CGAL::Triangulation_data_structure_3<Vb, Cb, CGAL::Parallel_tag>;
+        using DT = CGAL::Delaunay_triangulation_3<K, Tds>;
+        CGAL::Bbox_3 box;
+        for (index_t i : kept)
+            box += CGAL::Bbox_3(points[i].x, points[i].y, points[i].z, points[i].x, points[i].y,
+                                points[i].z);
+        tbb::task_arena arena(static_cast<int>(threads));
+        arena.execute([&] {
+            const auto in = input();
+            // 50 grid cells per side: CGAL's own examples' choice.
+            typename DT::Lock_data_structure locks(box, 50);
+            DT dt(in.begin(), in.end(), &locks);
+            take(dt);
+        });
+        return;
+    }
+#endif
+    (void)threads;
     using Tds = CGAL::Triangulation_data_structure_3<Vb>;
     using DT = CGAL::Delaunay_triangulation_3<K, Tds>;
+    const auto in = input();
+    // The range insertion sorts spatially (Hilbert order) first: the fast path.
+    DT dt(in.begin(), in.end());
+    take(dt);
+}
 
+/// The triangulation as arrays, numbered by the points alone: the vertices (the kept
+/// points) along a Morton curve, so that a vertex's star and, in a parallel run, its lock
+/// words sit in a few cache lines; each tet positively oriented and written from its
+/// smallest vertex (an even permutation), the tets sorted. CGAL's storage order, which
+/// depends on the insertion order and the threads, plays no part.
+template <class DT>
+delaunay_result numbered(const std::vector<vec3>& points, const std::vector<index_t>& kept,
+                         const DT& dt) {
+    delaunay_result r;
+    {
+        struct view { // what partition::morton::keys reads
+            const std::vector<vec3>& p;
+            const std::vector<index_t>& kept;
+            index_t vertex_slots() const noexcept { return index_t(kept.size()); }
+            bool vertex_alive(index_t) const noexcept { return true; }
+            const vec3& position(index_t v) const noexcept { return p[kept[v]]; }
+        };
+        auto keyed = partition::morton::keys(view{points, kept});
+        tbb::parallel_sort(keyed.begin(), keyed.end()); // ties: by input index
+        r.vertices.resize(keyed.size());
+        r.index_of.assign(points.size(), invalid_index);
+        for (std::size_t i = 0; i < keyed.size(); ++i) {
+            const index_t input = kept[keyed[i].second];
+            r.vertices[i] = points[input];
+            r.index_of[input] = index_t(i);
+        }
+    }
+    r.duplicates = points.size() - kept.size();
+    r.tets.reserve(dt.number_of_finite_cells());
+    for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) {
+        tet_indices t;
+        for (int k = 0; k < 4; ++k) t[k] = r.index_of[c->vertex(k)->info()];
+        r.tets.push_back(t);
+    }
+    const auto& p = r.vertices;
+    tbb::parallel_for(std::size_t{0}, r.tets.size(), [&](std::size_t i) {
+        tet_indices& t = r.tets[i];
+        // CGAL orders cells positively in its own sense; check ours exactly once here.
+        if (orient3d(p[t[0]], p[t[1]], p[t[2]], p[t[3]]) < 0) std::swap(t[2], t[3]);
+        // The smallest vertex first by an even permutation (two swaps), then the other
+        // three rotated to start at their smallest: the orientation stays.
+        const auto lowest = std::min_element(t.begin(), t.end()) - t.begin();
+        if (lowest == 1) t = {t[1], t[0], t[3], t[2]};
+        if (lowest == 2) t = {t[2], t[3], t[0], t[1]};
+        if (lowest == 3) t = {t[3], t[2], t[1], t[0]};
+        while (t[1] > t[2] || t[1] > t[3]) t = {t[0], t[2], t[3], t[1]};
+    });
+    tbb::parallel_sort(
+        r.tets.begin(), r.tets.end(), [](const tet_indices& a, const tet_indices& b) {
+            return std::tie(a[0], a[1], a[2], a[3]) < std::tie(b[0], b[1], b[2], b[3]);
+        });
+    return r;
+}
+
+} // namespace detail
+
+/// Delaunay tetrahedralization of `points`. Exact duplicates are merged (the first copy
+/// stays). Throws input_error if there are fewer than four distinct points or all are
+/// coplanar (no tet at all). With `threads` > 1 CGAL inserts in parallel (when it runs on
+/// oneTBB); the result does not depend on the thread count: the Delaunay tetrahedralization
+/// is unique (CGAL perturbs cospherical points symbolically), and it is numbered here in
+/// an order of its own (vertices along a Morton curve, tets sorted).
+inline delaunay_result delaunay_tetrahedralization(const std::vector<vec3>& points,
+                                                   unsigned threads = 1) {
     for (std::size_t i = 0; i < points.size(); ++i)
         if (!is_finite(points[i]))
             throw input_error("point " + std::to_string(i) + " has a non-finite coordinate");
     if (points.size() >= invalid_index) throw input_error("too many points");
-    std::vector<std::pair<K::Point_3, index_t>> input;
-    input.reserve(points.size());
-    for (std::size_t i = 0; i < points.size(); ++i)
-        input.emplace_back(K::Point_3(points[i].x, points[i].y, points[i].z),
-                           static_cast<index_t>(i));
-    // The range insertion sorts spatially (Hilbert order) first: the fast path.
-    DT dt(input.begin(), input.end());
-    if (dt.dimension() < 3)
-        throw input_error("the " + std::to_string(points.size()) +
-                          " points span no volume (fewer than four distinct points, or all "
-                          "coplanar): there is no tetrahedralization");
-
+    const std::vector<index_t> kept = detail::distinct_points(points);
     delaunay_result r;
-    // Vertices are numbered in CGAL's storage order, which follows the spatial sort of
-    // the insertion, so neighbours get nearby ids (cache locality for everything after);
-    // tets are then grouped by their smallest vertex. Duplicates are not in the
-    // triangulation and are counted.
-    std::vector<index_t> new_id(points.size(), invalid_index);
-    r.vertices.reserve(dt.number_of_vertices());
-    for (auto v = dt.finite_vertices_begin(); v != dt.finite_vertices_end(); ++v) {
-        new_id[v->info()] = static_cast<index_t>(r.vertices.size());
-        r.vertices.push_back(points[v->info()]);
-    }
-    r.duplicates = points.size() - r.vertices.size();
-    // Then along a Morton curve: CGAL inserts in rounds of a randomised order (BRIO), each
-    // round sorted, so neighbours in space came from different rounds, far apart in the
-    // storage order. Along the curve a vertex's star, and its lock words in a parallel
-    // run, sit in a few cache lines.
-    {
-        struct view { // what partition::morton::keys reads
-            const std::vector<vec3>& p;
-            index_t vertex_slots() const noexcept { return index_t(p.size()); }
-            bool vertex_alive(index_t) const noexcept { return true; }
-            const vec3& position(index_t v) const noexcept { return p[v]; }
-        };
-        auto keyed = partition::morton::keys(view{r.vertices});
-        std::sort(keyed.begin(), keyed.end());
-        std::vector<index_t> rank(keyed.size());
-        std::vector<vec3> sorted(keyed.size());
-        for (std::size_t i = 0; i < keyed.size(); ++i)
-            rank[keyed[i].second] = index_t(i), sorted[i] = r.vertices[keyed[i].second];
-        for (index_t& id : new_id)
-            if (id != invalid_index) id = rank[id];
-        r.vertices = std::move(sorted);
-    }
-    r.index_of = new_id;
-    std::vector<tet_indices> cells;
-    cells.reserve(dt.number_of_finite_cells());
-    std::vector<std::size_t> first(r.vertices.size() + 1, 0);
-    for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) {
-        tet_indices t;
-        for (int k = 0; k < 4; ++k) t[k] = new_id[c->vertex(k)->info()];
-        // CGAL orders cells positively in its own sense; check ours exactly once here.
-        const auto& p = r.vertices;
-        if (orient3d(p[t[0]], p[t[1]], p[t[2]], p[t[3]]) < 0) std::swap(t[2], t[3]);
-        cells.push_back(t);
-        ++first[*std::min_element(t.begin(), t.end()) + 1];
-    }
-    for (std::size_t v = 0; v < r.vertices.size(); ++v) first[v + 1] += first[v];
-    r.tets.resize(cells.size());
-    for (const auto& t : cells) r.tets[first[*std::min_element(t.begin(), t.end())]++] = t;
+    detail::triangulate(points, kept, threads, [&](const auto& dt) {
+        if (dt.dimension() < 3)
+            throw input_error("the " + std::to_string(points.size()) +
+                              " points span no volume (fewer than four distinct points, or "
+                              "all coplanar): there is no tetrahedralization");
+        r = detail::numbered(points, kept, dt);
+    });
     return r;
 }
 

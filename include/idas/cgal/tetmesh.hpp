@@ -263,7 +263,7 @@ inline result insert_soup(const std::vector<vec3>& vertices, const std::vector<t
                     if (on_box || !tree.closest_point(q, keep_away)) points.push_back(q);
                 }
     }
-    const cgal::delaunay_result dt = cgal::delaunay_tetrahedralization(points);
+    const cgal::delaunay_result dt = cgal::delaunay_tetrahedralization(points, threads);
     insertion::insertion_input in;
     in.vertices = dt.vertices;
     in.tets = dt.tets;

@@ -120,8 +120,10 @@ public:
         // Dead slots are not recycled during the run, whatever the thread count: the free
         // list would be shared state, and numbering must not depend on the threads.
         m_.set_slot_recycling(false);
+        const stopwatch seeding;
         seed();
         live_ = hooks::counts(m_);
+        const double seeded = seeding.seconds();
         while (!hooks::should_stop(spec_, live_) && fill_and_select() > 0) {
             mark_regions();
             if (pick_winners() == 0) continue; // cannot happen: the best candidate wins
@@ -134,6 +136,7 @@ public:
         for (auto& t : threads_) r += t->report;
         r.faces = live_.faces, r.vertices = live_.vertices;
         r.rounds += rounds_;
+        r.setup_seconds += seeded;
         m_.set_slot_recycling(true);
     }
 

@@ -64,16 +64,19 @@ public:
                       "idas: executor::run takes the executor's spec_type exactly; a derived or "
                       "decorated spec would run as its base and its own hooks would never be "
                       "called: run it with Algorithm::with_spec<Decorated>::run");
-        const auto start = std::chrono::steady_clock::now();
+        const detail::stopwatch total;
         exec_options o = options;
         o.deterministic = deterministic_policy<Lock>;
         detail::hooks<Spec, Mesh>::prepare(spec, m, o);
+        const double prepared = total.seconds();
         schedule_run<Spec, Mesh, Lock, Queue, Partition> run(m, spec, o);
         Lock::execute(run);
+        const detail::stopwatch finishing;
         detail::hooks<Spec, Mesh>::finish(spec, m);
         run_report report = run.report();
-        report.seconds =
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        report.setup_seconds += prepared;
+        report.tail_seconds += finishing.seconds();
+        report.seconds = total.seconds();
         return report;
     }
 };

@@ -1,9 +1,23 @@
 // What a run is told (options) and what it tells (live progress, the final report).
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 
 namespace idas {
+
+namespace detail {
+/// Wall time since construction, for the reports' phase times.
+class stopwatch {
+public:
+    double seconds() const noexcept {
+        return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+    }
+
+private:
+    std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
+};
+} // namespace detail
 
 /// Live counts the stopping criterion sees (`faces` counts top cells: tets on tet meshes).
 /// Exact in serial; in parallel, refreshed every `check_every` successes per worker, so a
@@ -36,6 +50,11 @@ struct run_report {
     std::int64_t faces = 0, vertices = 0;
     unsigned threads = 1;
     double seconds = 0;
+    // Where the wall time went: setting up (the spec's prepare, partitioning, seeding the
+    // queues) and the serial tail (the final serial pass of a parallel run, the spec's
+    // finish) run on one thread; the rest of `seconds` is the main phase. The serial share
+    // (setup + tail) / seconds bounds the speedup by Amdahl's law.
+    double setup_seconds = 0, tail_seconds = 0;
 
     /// Adds another run's counts (a worker's, or a phase's in a schedule); the live counts
     /// and thread count are the later run's.
@@ -45,7 +64,7 @@ struct run_report {
         refused += o.refused, lock_failures += o.lock_failures;
         deferred_to_serial += o.deferred_to_serial, stolen += o.stolen;
         crossed_parts += o.crossed_parts, owner_seconds += o.owner_seconds, rounds += o.rounds;
-        seconds += o.seconds;
+        seconds += o.seconds, setup_seconds += o.setup_seconds, tail_seconds += o.tail_seconds;
         return *this;
     }
 };

@@ -89,8 +89,10 @@ public:
             me.q.push(hooks::template make_entry<decltype(op)>(spec_, m_, t));
             ++me.report.pushed;
         };
+        const detail::stopwatch seeding;
         hooks::initial(spec_, m_, push);
         live_ = hooks::counts(m_);
+        report_.setup_seconds += seeding.seconds();
         drain_serial(me);
         report_ += me.report;
         report_.faces = live_.faces, report_.vertices = live_.vertices;
@@ -109,9 +111,13 @@ public:
     /// thread. Phases run the workers with `each_worker`.
     template <class Phases>
     void parallel_run(Phases&& phases) {
+        const detail::stopwatch setup;
         start_workers();
+        report_.setup_seconds += setup.seconds();
         phases();
+        const detail::stopwatch tail;
         stop_workers();
+        report_.tail_seconds += tail.seconds();
     }
 
     /// Runs fn(worker&) for every part, on the run's threads.

@@ -47,8 +47,14 @@ inline void write_off_unchecked(std::ostream& os, const surface& s) {
     text_sink out(os);
     out << "OFF\n"
         << std::uint64_t{s.vertices.size()} << ' ' << std::uint64_t{s.faces.size()} << " 0\n";
-    for (const vec3& p : s.vertices) out << p.x << ' ' << p.y << ' ' << p.z << '\n';
-    for (const tri_indices& t : s.faces) out << "3 " << t[0] << ' ' << t[1] << ' ' << t[2] << '\n';
+    write_items(out, s.vertices.size(), [&](text_sink& to, std::size_t v) {
+        const vec3& p = s.vertices[v];
+        to << p.x << ' ' << p.y << ' ' << p.z << '\n';
+    });
+    write_items(out, s.faces.size(), [&](text_sink& to, std::size_t f) {
+        const tri_indices& t = s.faces[f];
+        to << "3 " << t[0] << ' ' << t[1] << ' ' << t[2] << '\n';
+    });
     out.flush();
 }
 

@@ -654,27 +654,27 @@ inline void write_ply_unchecked(std::ostream& os, const surface& s, encoding enc
                << (a->name == "uv" ? std::string("texcoord") : a->name) << '\n';
     header << "end_header\n";
     if (enc == encoding::ascii) {
-        for (std::size_t v = 0; v < s.vertices.size(); ++v) {
+        write_items(header, s.vertices.size(), [&](text_sink& out, std::size_t v) {
             const vec3& p = s.vertices[v];
-            header << p.x << ' ' << p.y << ' ' << p.z;
+            out << p.x << ' ' << p.y << ' ' << p.z;
             for (const attribute_column* a : vertex_columns)
                 for (std::uint32_t k = 0; k < a->width; ++k)
-                    header << ' ', put_scalar(header, a->type, a->values[v * a->width + k]);
-            header << '\n';
-        }
-        for (std::size_t f = 0; f < s.faces.size(); ++f) {
+                    out << ' ', put_scalar(out, a->type, a->values[v * a->width + k]);
+            out << '\n';
+        });
+        write_items(header, s.faces.size(), [&](text_sink& out, std::size_t f) {
             const tri_indices& t = s.faces[f];
-            header << "3 " << t[0] << ' ' << t[1] << ' ' << t[2];
+            out << "3 " << t[0] << ' ' << t[1] << ' ' << t[2];
             for (const attribute_column* a : face_columns)
                 for (std::uint32_t k = 0; k < a->width; ++k)
-                    header << ' ', put_scalar(header, a->type, a->values[f * a->width + k]);
+                    out << ' ', put_scalar(out, a->type, a->values[f * a->width + k]);
             for (const attribute_column* a : corner_columns) {
-                header << " 6";
+                out << " 6";
                 for (std::size_t k = 0; k < 6; ++k)
-                    header << ' ', put_scalar(header, a->type, a->values[6 * f + k]);
+                    out << ' ', put_scalar(out, a->type, a->values[6 * f + k]);
             }
-            header << '\n';
-        }
+            out << '\n';
+        });
         header.flush();
         return;
     }

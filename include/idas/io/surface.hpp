@@ -18,6 +18,9 @@
 #include <utility>
 #include <vector>
 
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
 namespace idas::io {
 
 /// How a file stores a value; attributes are written back with the type they were read with.
@@ -422,14 +425,16 @@ std::vector<std::string> unstored_attributes(const surface& s, Kept&& kept) {
 }
 
 /// Buffered text output: formats numbers with std::to_chars into a local buffer and
-/// hands the stream large blocks, which is several times faster than operator<<.
+/// hands the stream large blocks, which is several times faster than operator<<. Without
+/// a stream it only collects the text (a block formatted by one task of a parallel write).
 class text_sink {
 public:
     // Callers flush() explicitly: a destructor that writes could throw during unwinding.
     explicit text_sink(std::ostream& os)
-        : os_(os) {
+        : os_(&os) {
         buf_.reserve(capacity + 64);
     }
+    text_sink() = default;
     text_sink(const text_sink&) = delete;
     text_sink& operator=(const text_sink&) = delete;
 
@@ -451,9 +456,13 @@ public:
     text_sink& operator<<(index_t v) { return put_number(v); }
 
     void flush() {
-        os_.write(buf_.data(), static_cast<std::streamsize>(buf_.size()));
+        if (!os_) return;
+        os_->write(buf_.data(), static_cast<std::streamsize>(buf_.size()));
         buf_.clear();
     }
+    /// The text collected so far (all of it, without a stream).
+    const std::string& text() const noexcept { return buf_; }
+    void clear() noexcept { buf_.clear(); }
 
 private:
     static constexpr std::size_t capacity = 1 << 16;
@@ -467,12 +476,39 @@ private:
         return *this;
     }
     void maybe_flush() {
-        if (buf_.size() >= capacity) flush();
+        if (os_ && buf_.size() >= capacity) flush();
     }
 
-    std::ostream& os_;
+    std::ostream* os_ = nullptr;
     std::string buf_;
 };
+
+/// Writes `format(sink, i)` for i = 0 .. n - 1 to `out` in order. Blocks of items are
+/// formatted in parallel (oneTBB) into their own buffers, a bounded number at a time, and
+/// written in order: number formatting, not the disk, is what a large text file waits for.
+template <class Format>
+void write_items(text_sink& out, std::size_t n, Format&& format) {
+    constexpr std::size_t block = 1 << 14;
+    const std::size_t blocks = (n + block - 1) / block;
+    if (blocks <= 1) {
+        for (std::size_t i = 0; i < n; ++i) format(out, i);
+        return;
+    }
+    const auto in_flight = 4 * static_cast<std::size_t>(tbb::this_task_arena::max_concurrency());
+    std::vector<text_sink> texts(std::min(blocks, in_flight));
+    for (std::size_t first = 0; first < blocks; first += texts.size()) {
+        const std::size_t count = std::min(texts.size(), blocks - first);
+        tbb::parallel_for(std::size_t{0}, count, [&](std::size_t k) {
+            const std::size_t b = first + k;
+            for (std::size_t i = b * block; i < std::min(n, (b + 1) * block); ++i)
+                format(texts[k], i);
+        });
+        for (std::size_t k = 0; k < count; ++k) {
+            out << std::string_view(texts[k].text());
+            texts[k].clear();
+        }
+    }
+}
 
 } // namespace detail
 } // namespace idas::io

@@ -2,10 +2,14 @@
 // an oriented 2-manifold (with boundary), and the two numbers edits must keep, the Euler
 // characteristic and the number of boundary loops. diagnose_topology says more, but sorts
 // every half-edge and explains each problem; this is O(F log valence) and stops at the
-// first problem, so every command can afford it on every result.
+// first problem, so every command can afford it on every result. Vertices are checked
+// in parallel (oneTBB); the result, and the problem reported, do not depend on the threads.
 #pragma once
 
 #include <idas/core/types.hpp>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_reduce.h>
 
 #include <algorithm>
 #include <optional>
@@ -65,29 +69,59 @@ inline surface_summary summarize_surface(std::size_t n_vertices,
         return it != st.end() && it->to == x ? &*it : nullptr;
     };
 
-    std::size_t referenced = 0, edges = 0;
-    std::vector<index_t> boundary_next(n_vertices, invalid_index);
-    for (index_t v = 0; v < n_vertices; ++v) {
+    // The per-vertex checks run in parallel blocks of vertices. Each block stops at its
+    // first problem; the problem of the lowest vertex is reported, as a serial scan would.
+    struct tally {
+        std::size_t referenced = 0, edges = 0, boundary_edges = 0;
+        index_t failed_at = invalid_index;
+        std::string problem;
+        void fail(index_t v, std::string what) {
+            if (v < failed_at) failed_at = v, problem = std::move(what);
+        }
+        void join(tally& o) {
+            referenced += o.referenced, edges += o.edges, boundary_edges += o.boundary_edges;
+            if (o.failed_at < failed_at) failed_at = o.failed_at, problem = std::move(o.problem);
+        }
+    };
+    using range = tbb::blocked_range<index_t>;
+    const auto over_vertices = [&](auto&& per_vertex) {
+        return tbb::parallel_deterministic_reduce(
+            range(0, static_cast<index_t>(n_vertices), 4096), tally{},
+            [&](const range& r, tally t) {
+                for (index_t v = r.begin(); v != r.end() && t.failed_at == invalid_index; ++v)
+                    per_vertex(v, t);
+                return t;
+            },
+            [](tally a, tally b) {
+                a.join(b);
+                return a;
+            });
+    };
+
+    tally sorted = over_vertices([&](index_t v, tally& t) {
         std::sort(out.begin() + offset[v], out.begin() + offset[v + 1]);
         const auto st = star(v);
         for (std::size_t i = 1; i < st.size(); ++i)
             if (st[i].to == st[i - 1].to)
-                return fail("edge (" + std::to_string(v) + ", " + std::to_string(st[i].to) +
-                            ") is used twice in the same direction (a non-manifold edge or "
-                            "inconsistent orientation)");
-        referenced += st.empty() ? 0 : 1;
-    }
-    for (index_t v = 0; v < n_vertices; ++v) {
+                return t.fail(v, "edge (" + std::to_string(v) + ", " + std::to_string(st[i].to) +
+                                     ") is used twice in the same direction (a non-manifold edge "
+                                     "or inconsistent orientation)");
+        t.referenced += st.empty() ? 0 : 1;
+    });
+    if (sorted.failed_at != invalid_index) return fail(std::move(sorted.problem));
+
+    std::vector<index_t> boundary_next(n_vertices, invalid_index);
+    tally fans = over_vertices([&](index_t v, tally& t) {
         const auto st = star(v);
         for (const half& h : st) {
             if (!find(h.to, v)) {
-                ++edges, ++s.boundary_edges;
+                ++t.edges, ++t.boundary_edges;
                 boundary_next[v] = h.to; // one per vertex once its star is one fan
             } else if (v < h.to) {
-                ++edges;
+                ++t.edges;
             }
         }
-        if (st.empty()) continue;
+        if (st.empty()) return;
         // Walk the fan: from (v, x, y) the next face around v has v -> y. Rewind first to
         // where an open fan starts, then count what one walk reaches.
         const half* start = &st[0];
@@ -103,9 +137,12 @@ inline surface_summary summarize_surface(std::size_t n_vertices,
              h = find(v, h->third))
             ++reached;
         if (reached != st.size())
-            return fail("vertex " + std::to_string(v) + ": its " + std::to_string(st.size()) +
-                        " faces do not form one fan (a non-manifold vertex)");
-    }
+            t.fail(v, "vertex " + std::to_string(v) + ": its " + std::to_string(st.size()) +
+                          " faces do not form one fan (a non-manifold vertex)");
+    });
+    if (fans.failed_at != invalid_index) return fail(std::move(fans.problem));
+    const std::size_t referenced = sorted.referenced, edges = fans.edges;
+    s.boundary_edges = fans.boundary_edges;
     for (index_t v = 0; v < n_vertices; ++v) {
         if (boundary_next[v] == invalid_index) continue;
         ++s.boundary_loops;

@@ -5,6 +5,8 @@
 
 #include <idas/core/types.hpp>
 
+#include <tbb/parallel_sort.h>
+
 #include <algorithm>
 #include <numeric>
 #include <sstream>
@@ -82,7 +84,7 @@ inline topology_report diagnose_topology(std::size_t n_vertices,
         }
     }
     r.referenced_vertices = static_cast<std::size_t>(std::count(used.begin(), used.end(), 1));
-    std::sort(hs.begin(), hs.end(), [](const half& x, const half& y) {
+    tbb::parallel_sort(hs.begin(), hs.end(), [](const half& x, const half& y) {
         return x.lo != y.lo ? x.lo < y.lo : (x.hi != y.hi ? x.hi < y.hi : x.face < y.face);
     });
 
@@ -136,7 +138,7 @@ inline topology_report diagnose_topology(std::size_t n_vertices,
                 t[1] != t[2] && t[0] != t[2])
                 for (index_t v : t) star[fill[v]++] = f;
         }
-        std::sort(vertex_joins.begin(), vertex_joins.end());
+        tbb::parallel_sort(vertex_joins.begin(), vertex_joins.end());
         std::size_t jpos = 0;
         std::vector<index_t> local_parent;
         for (index_t v = 0; v < n_vertices; ++v) {

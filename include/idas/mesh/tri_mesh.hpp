@@ -7,6 +7,7 @@
 #include <idas/core/tuple.hpp>
 #include <idas/mesh/backend/corner_table_tri.hpp>
 #include <idas/mesh/backend/indexed_tri.hpp>
+#include <idas/mesh/surface_check.hpp>
 #include <idas/mesh/topology_report.hpp>
 
 #include <boost/container/small_vector.hpp>
@@ -36,8 +37,12 @@ public:
         for (std::size_t i = 0; i < vertices.size(); ++i)
             if (!is_finite(vertices[i]))
                 throw input_error("vertex " + std::to_string(i) + " has a non-finite coordinate");
-        const topology_report r = diagnose_topology(vertices.size(), faces);
-        if (!r.editable()) throw input_error("mesh is " + describe_problems(r));
+        // The quick check (parallel, stops at the first problem) passes every editable
+        // face list; only a list it refuses pays for the diagnosis that names every problem.
+        if (summarize_surface(vertices.size(), faces).problem) {
+            const topology_report r = diagnose_topology(vertices.size(), faces);
+            if (!r.editable()) throw input_error("mesh is " + describe_problems(r));
+        }
         conn_.build(static_cast<index_t>(vertices.size()), faces);
         grow_attributes();
         auto p = positions();
