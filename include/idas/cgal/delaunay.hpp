@@ -32,22 +32,55 @@ struct delaunay_result {
 
 namespace detail {
 
-/// The order `points` are kept in: by coordinates, so equal points are adjacent and only
-/// the first copy (lowest index) of each stays.
-inline std::vector<index_t> distinct_points(const std::vector<vec3>& points) {
-    std::vector<index_t> order(points.size());
-    std::iota(order.begin(), order.end(), index_t{0});
-    const auto less = [&](index_t a, index_t b) {
-        const vec3 &p = points[a], &q = points[b];
-        return std::tie(p.x, p.y, p.z, a) < std::tie(q.x, q.y, q.z, b);
+/// The distinct points along a Morton curve (`order`: their input indices, so that a
+/// vertex's star and, in a parallel run, its lock words sit in a few cache lines) and each
+/// input point's place in it (`index_of`; invalid for a copy of an earlier point: equal
+/// points share a key, and the first copy, the lowest index, stays). One sort, whose ties
+/// are broken by input index: the numbering depends on the points alone.
+struct point_numbering {
+    std::vector<index_t> order, index_of;
+};
+inline point_numbering number_points(const std::vector<vec3>& points) {
+    struct view { // what partition::morton::keys reads
+        const std::vector<vec3>& p;
+        index_t vertex_slots() const noexcept { return index_t(p.size()); }
+        bool vertex_alive(index_t) const noexcept { return true; }
+        const vec3& position(index_t v) const noexcept { return p[v]; }
     };
-    tbb::parallel_sort(order.begin(), order.end(), less);
-    std::vector<index_t> kept;
-    kept.reserve(order.size());
-    for (std::size_t i = 0; i < order.size(); ++i)
-        if (i == 0 || !(points[order[i]] == points[order[i - 1]])) kept.push_back(order[i]);
-    std::sort(kept.begin(), kept.end());
-    return kept;
+    auto keyed = partition::morton::keys(view{points});
+    tbb::parallel_sort(keyed.begin(), keyed.end());
+    point_numbering n;
+    n.order.reserve(keyed.size());
+    n.index_of.assign(points.size(), invalid_index);
+    std::vector<char> copy;
+    std::vector<index_t> by_position;
+    for (std::size_t b = 0; b < keyed.size();) { // runs of equal keys
+        std::size_t e = b + 1;
+        while (e < keyed.size() && keyed[e].first == keyed[b].first) ++e;
+        copy.assign(e - b, 0);
+        if (e - b <= 16) {
+            for (std::size_t i = b + 1; i < e; ++i)
+                for (std::size_t j = b; j < i && !copy[i - b]; ++j)
+                    copy[i - b] = points[keyed[j].second] == points[keyed[i].second];
+        } else { // many points in one grid cell: sort them by position instead
+            by_position.resize(e - b);
+            std::iota(by_position.begin(), by_position.end(), index_t{0});
+            const auto at = [&](index_t k) -> const vec3& { return points[keyed[b + k].second]; };
+            std::sort(by_position.begin(), by_position.end(), [&](index_t x, index_t y) {
+                return std::tie(at(x).x, at(x).y, at(x).z, x) <
+                       std::tie(at(y).x, at(y).y, at(y).z, y);
+            });
+            for (std::size_t i = 1; i < by_position.size(); ++i)
+                if (at(by_position[i]) == at(by_position[i - 1])) copy[by_position[i]] = 1;
+        }
+        for (std::size_t i = b; i < e; ++i)
+            if (!copy[i - b]) {
+                n.index_of[keyed[i].second] = index_t(n.order.size());
+                n.order.push_back(keyed[i].second);
+            }
+        b = e;
+    }
+    return n;
 }
 
 /// CGAL's triangulation of the points `kept` (by index), on `threads` threads when CGAL
@@ -95,43 +128,27 @@ void triangulate(const std::vector<vec3>& points, const std::vector<index_t>& ke
     take(dt);
 }
 
-/// The triangulation as arrays, numbered by the points alone: the vertices (the kept
-/// points) along a Morton curve, so that a vertex's star and, in a parallel run, its lock
-/// words sit in a few cache lines; each tet positively oriented and written from its
-/// smallest vertex (an even permutation), the tets sorted. CGAL's storage order, which
+/// The triangulation as arrays in the numbering `n`: each tet positively oriented and
+/// written from its smallest vertex (an even permutation), the tets sorted (grouped by
+/// that vertex with a counting sort, each group sorted). CGAL's storage order, which
 /// depends on the insertion order and the threads, plays no part.
 template <class DT>
-delaunay_result numbered(const std::vector<vec3>& points, const std::vector<index_t>& kept,
-                         const DT& dt) {
+delaunay_result numbered(const std::vector<vec3>& points, point_numbering n, const DT& dt) {
     delaunay_result r;
-    {
-        struct view { // what partition::morton::keys reads
-            const std::vector<vec3>& p;
-            const std::vector<index_t>& kept;
-            index_t vertex_slots() const noexcept { return index_t(kept.size()); }
-            bool vertex_alive(index_t) const noexcept { return true; }
-            const vec3& position(index_t v) const noexcept { return p[kept[v]]; }
-        };
-        auto keyed = partition::morton::keys(view{points, kept});
-        tbb::parallel_sort(keyed.begin(), keyed.end()); // ties: by input index
-        r.vertices.resize(keyed.size());
-        r.index_of.assign(points.size(), invalid_index);
-        for (std::size_t i = 0; i < keyed.size(); ++i) {
-            const index_t input = kept[keyed[i].second];
-            r.vertices[i] = points[input];
-            r.index_of[input] = index_t(i);
-        }
-    }
-    r.duplicates = points.size() - kept.size();
-    r.tets.reserve(dt.number_of_finite_cells());
+    r.vertices.resize(n.order.size());
+    tbb::parallel_for(std::size_t{0}, n.order.size(),
+                      [&](std::size_t i) { r.vertices[i] = points[n.order[i]]; });
+    r.duplicates = points.size() - n.order.size();
+    std::vector<tet_indices> cells;
+    cells.reserve(dt.number_of_finite_cells());
     for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) {
         tet_indices t;
-        for (int k = 0; k < 4; ++k) t[k] = r.index_of[c->vertex(k)->info()];
-        r.tets.push_back(t);
+        for (int k = 0; k < 4; ++k) t[k] = n.index_of[c->vertex(k)->info()];
+        cells.push_back(t);
     }
     const auto& p = r.vertices;
-    tbb::parallel_for(std::size_t{0}, r.tets.size(), [&](std::size_t i) {
-        tet_indices& t = r.tets[i];
+    tbb::parallel_for(std::size_t{0}, cells.size(), [&](std::size_t i) {
+        tet_indices& t = cells[i];
         // CGAL orders cells positively in its own sense; check ours exactly once here.
         if (orient3d(p[t[0]], p[t[1]], p[t[2]], p[t[3]]) < 0) std::swap(t[2], t[3]);
         // The smallest vertex first by an even permutation (two swaps), then the other
@@ -142,10 +159,19 @@ delaunay_result numbered(const std::vector<vec3>& points, const std::vector<inde
         if (lowest == 3) t = {t[3], t[2], t[1], t[0]};
         while (t[1] > t[2] || t[1] > t[3]) t = {t[0], t[2], t[3], t[1]};
     });
-    tbb::parallel_sort(
-        r.tets.begin(), r.tets.end(), [](const tet_indices& a, const tet_indices& b) {
-            return std::tie(a[0], a[1], a[2], a[3]) < std::tie(b[0], b[1], b[2], b[3]);
-        });
+    std::vector<std::size_t> first(r.vertices.size() + 1, 0);
+    for (const auto& t : cells) ++first[t[0] + 1];
+    for (std::size_t v = 0; v < r.vertices.size(); ++v) first[v + 1] += first[v];
+    r.tets.resize(cells.size());
+    {
+        std::vector<std::size_t> fill(first.begin(), first.end() - 1);
+        for (const auto& t : cells) r.tets[fill[t[0]]++] = t;
+    }
+    tbb::parallel_for(std::size_t{0}, r.vertices.size(), [&](std::size_t v) {
+        std::sort(r.tets.begin() + std::ptrdiff_t(first[v]),
+                  r.tets.begin() + std::ptrdiff_t(first[v + 1]));
+    });
+    r.index_of = std::move(n.index_of);
     return r;
 }
 
@@ -155,22 +181,22 @@ delaunay_result numbered(const std::vector<vec3>& points, const std::vector<inde
 /// stays). Throws input_error if there are fewer than four distinct points or all are
 /// coplanar (no tet at all). With `threads` > 1 CGAL inserts in parallel (when it runs on
 /// oneTBB); the result does not depend on the thread count: the Delaunay tetrahedralization
-/// is unique (CGAL perturbs cospherical points symbolically), and it is numbered here in
-/// an order of its own (vertices along a Morton curve, tets sorted).
+/// is unique (CGAL perturbs cospherical points symbolically), and it is numbered here by
+/// the points alone (vertices along a Morton curve, tets sorted).
 inline delaunay_result delaunay_tetrahedralization(const std::vector<vec3>& points,
                                                    unsigned threads = 1) {
     for (std::size_t i = 0; i < points.size(); ++i)
         if (!is_finite(points[i]))
             throw input_error("point " + std::to_string(i) + " has a non-finite coordinate");
     if (points.size() >= invalid_index) throw input_error("too many points");
-    const std::vector<index_t> kept = detail::distinct_points(points);
+    detail::point_numbering n = detail::number_points(points);
     delaunay_result r;
-    detail::triangulate(points, kept, threads, [&](const auto& dt) {
+    detail::triangulate(points, n.order, threads, [&](const auto& dt) {
         if (dt.dimension() < 3)
             throw input_error("the " + std::to_string(points.size()) +
                               " points span no volume (fewer than four distinct points, or "
                               "all coplanar): there is no tetrahedralization");
-        r = detail::numbered(points, kept, dt);
+        r = detail::numbered(points, std::move(n), dt);
     });
     return r;
 }
