@@ -674,19 +674,7 @@ private:
                 throw input_error(tet_name(t) + " is degenerate: its vertices are coplanar");
             if (o < 0) throw input_error(tet_name(t) + " is inverted (negatively oriented)");
         };
-        using range = tbb::blocked_range<std::size_t>;
-        const std::size_t first_bad = tbb::parallel_reduce(
-            range(0, tets.size(), 4096), tets.size(),
-            [&](const range& r, std::size_t bad) {
-                for (std::size_t t = r.begin(); t != r.end() && t < bad; ++t) try {
-                        check_tet(t);
-                    } catch (const input_error&) {
-                        return t;
-                    }
-                return bad;
-            },
-            [](std::size_t a, std::size_t b) { return std::min(a, b); });
-        if (first_bad < tets.size()) check_tet(first_bad); // throws its message
+        throw_first_refused(tets.size(), 4096, check_tet);
         // Every face as a sorted triple with the parity of its outward orientation: a
         // shared face must be seen in opposite directions from its two tets. Faces are
         // grouped by their smallest vertex (a counting sort), each group sorted and checked
@@ -748,18 +736,25 @@ private:
                 i = j;
             }
         };
-        const std::size_t first_bad_group = tbb::parallel_reduce(
-            range(0, vertices.size(), 1024), vertices.size(),
+        throw_first_refused(vertices.size(), 1024, check_group);
+    }
+    /// Runs check(0) ... check(n - 1) in parallel blocks; if any throws input_error, the
+    /// lowest one's is thrown again, so the message is the one a serial scan would give.
+    template <class Check>
+    static void throw_first_refused(std::size_t n, std::size_t grain, const Check& check) {
+        using range = tbb::blocked_range<std::size_t>;
+        const std::size_t first = tbb::parallel_reduce(
+            range(0, n, grain), n,
             [&](const range& r, std::size_t bad) {
-                for (std::size_t v = r.begin(); v != r.end() && v < bad; ++v) try {
-                        check_group(v);
+                for (std::size_t i = r.begin(); i != r.end() && i < bad; ++i) try {
+                        check(i);
                     } catch (const input_error&) {
-                        return v;
+                        return i;
                     }
                 return bad;
             },
-            [](std::size_t a, std::size_t b) { return std::min(a, b); });
-        if (first_bad_group < vertices.size()) check_group(first_bad_group); // throws
+            [](std::size_t x, std::size_t y) { return std::min(x, y); });
+        if (first < n) check(first); // throws its message
     }
     void grow_attributes() {
         attrs_.ensure(simplex_kind::vertex, vertex_slots());
