@@ -114,15 +114,7 @@ void check_threads(unsigned threads) {
                                 " (got " + std::to_string(threads) + ")");
 }
 
-class stopwatch {
-public:
-    double seconds() const {
-        return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
-    }
-
-private:
-    std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
-};
+using idas::detail::stopwatch; // wall seconds since construction
 
 /// Wall time per phase of a command, in the order they ran (read, build, the algorithm's
 /// setup, main phase and serial tail, check, write, ...): `--json` reports them under
