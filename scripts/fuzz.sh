@@ -45,7 +45,7 @@ for t in "${targets[@]}"; do
         pids[$h]=done
         continue
     fi
-    "$cxx" "${flags[@]}" "tests/fuzz/fuzz_$h.cpp" -o "$bin" -lgmpxx -lgmp \
+    "$cxx" "${flags[@]}" "tests/fuzz/fuzz_$h.cpp" -o "$bin" -lgmpxx -lgmp -ltbb \
         >"$out/logs/build_$h.log" 2>&1 &
     pids[$h]=$!
 done
