@@ -5,7 +5,6 @@
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
     return idas::fuzz::run(data, size, [](std::string_view bytes) {
         const idas::io::volume v = idas::io::parse_msh(bytes, idas::fuzz::source);
-        idas::fuzz::check_points(v.vertices);
-        idas::fuzz::check_cells(v.vertices.size(), v.tets);
+        idas::fuzz::check_volume(v);
     });
 }

@@ -5,7 +5,6 @@
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
     return idas::fuzz::run(data, size, [](std::string_view bytes) {
         const idas::io::surface s = idas::io::parse_ply(bytes, idas::fuzz::source);
-        idas::fuzz::check_points(s.vertices);
-        idas::fuzz::check_cells(s.vertices.size(), s.faces);
+        idas::fuzz::check_surface(s);
     });
 }

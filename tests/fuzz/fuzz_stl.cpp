@@ -8,8 +8,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         idas::fuzz::run(data, size, [weld](std::string_view bytes) {
             const idas::io::surface s =
                 idas::io::parse_stl(bytes, idas::fuzz::source, {.weld_stl = weld});
-            idas::fuzz::check_points(s.vertices);
-            idas::fuzz::check_cells(s.vertices.size(), s.faces);
+            idas::fuzz::check_surface(s);
         });
     }
     return 0;

@@ -5,6 +5,8 @@
 #pragma once
 
 #include "idas/core/types.hpp"
+#include "idas/io/surface.hpp"
+#include "idas/io/volume.hpp"
 
 #include <cstddef>
 #include <cstdint>
@@ -15,6 +17,7 @@
 #include <string>
 #include <string_view>
 #include <typeinfo>
+#include <vector>
 
 namespace idas::fuzz {
 
@@ -58,6 +61,43 @@ void check_cells(std::size_t vertex_count, const Cells& cells) {
                 if (c[i] == c[j]) finding("a reader returned a cell that repeats a vertex");
         }
     }
+}
+
+/// Attribute columns hold `width` values per element: one element per vertex, per face or
+/// (corner columns) three per face; a tag column's values index its labels.
+inline void check_attributes(const io::surface& s) {
+    for (const io::attribute_column& a : s.attributes) {
+        std::size_t elements = s.vertices.size();
+        if (a.domain == io::attribute_domain::face) elements = s.faces.size();
+        if (a.domain == io::attribute_domain::corner) elements = 3 * s.faces.size();
+        if (a.width == 0 || a.values.size() != elements * a.width)
+            finding("attribute \"" + a.name + "\" has " + std::to_string(a.values.size()) +
+                    " values for " + std::to_string(elements) + " elements of width " +
+                    std::to_string(a.width));
+        if (!a.labels.empty())
+            for (double v : a.values)
+                if (!(v >= 0 && v < static_cast<double>(a.labels.size())))
+                    finding("tag column \"" + a.name + "\" holds a value without a label");
+    }
+}
+
+inline void check_surface(const io::surface& s) {
+    check_points(s.vertices);
+    check_cells(s.vertices.size(), s.faces);
+    check_attributes(s);
+}
+
+/// Tets in range, one tag per tet (or none), each field `components` values per vertex.
+inline void check_volume(const io::volume& v) {
+    check_points(v.vertices);
+    check_cells(v.vertices.size(), v.tets);
+    if (!v.tags.empty() && v.tags.size() != v.tets.size())
+        finding("a reader returned " + std::to_string(v.tags.size()) + " tags for " +
+                std::to_string(v.tets.size()) + " tets");
+    for (const io::vertex_field& f : v.vertex_fields)
+        if (f.components < 1 || f.values.size() != v.vertices.size() * std::size_t(f.components))
+            finding("vertex field \"" + f.name + "\" has " + std::to_string(f.values.size()) +
+                    " values for " + std::to_string(v.vertices.size()) + " vertices");
 }
 
 } // namespace idas::fuzz

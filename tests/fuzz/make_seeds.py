@@ -190,3 +190,122 @@ def gmsh_heads():
 
 for make in (gmsh_heads, obj, off, ply, stl, msh22, msh41, points):
     make()
+
+
+# ---- the attributes the readers keep (texture coordinates, normals, colours, tags, fields)
+
+def obj_attributes():
+    put("obj", "attributes.obj", "mtllib a.mtl b.mtl\no parts\n"
+        "v 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 0 1 0 0 0 1\nv 0 0 1 0.5 0.5 0.5\nv 1 1 1\n"
+        "vt 0 0\nvt 1 0\nvt 0 1 0.5\nvn 0 0 1\nvn 1 0 0\n"
+        "g left side\nusemtl red\nf 1/1/1 2/2/1 3/3/1\nf 1//2 2//2 4//2\n"
+        "g right\nusemtl blue\nf -5/-3 -2/-2 -3/-1\nusemtl red\nf 2/1/2 5/2/2 3/3/2 4/1/1\n"
+        "g left side\nf 3 4 5\ns 1\n")
+    # Stretch boundaries fall inside these lines when the harness splits the text in three.
+    lines = ["v %d %d %d" % p for p in P] + ["vt 0.25 0.75", "vn 0 1 0", "usemtl m1"]
+    lines += ["f %d/1/1 %d/1/1 %d/1/1" % tuple(i + 1 for i in t) for t in TRIS[:3]]
+    lines += ["g g2", "usemtl m2"] + ["f %d %d %d" % tuple(i - 5 for i in t) for t in TRIS[3:]]
+    put("obj", "split_tags.obj", "\n".join(lines) + "\n")
+    put("obj", "forward_uv.obj", "f 1/2/1 2/1/1 3/2/1\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\n"
+        "vt 1 1\nvn 0 0 1\n")
+
+
+PLY_ALL = ["char", "uchar", "short", "ushort", "int", "uint", "float", "double",
+           "int8", "uint8", "int16", "uint16", "int32", "uint32", "float32", "float64"]
+PLY_ALIAS = {"int8": "char", "uint8": "uchar", "int16": "short", "uint16": "ushort",
+             "int32": "int", "uint32": "uint", "float32": "float", "float64": "double"}
+
+
+def ply_attributes():
+    vprops = "".join(f"property {t} a_{t}\n" for t in PLY_ALL)
+    hdr = lambda fmt: (f"ply\nformat {fmt} 1.0\nelement vertex 4\nproperty float x\n"
+                       "property float y\nproperty float z\nproperty float nx\nproperty float ny\n"
+                       "property float nz\nproperty uchar red\nproperty uchar green\n"
+                       "property uchar blue\nproperty uchar alpha\n" + vprops +
+                       "element face 2\nproperty list uchar int vertex_indices\n"
+                       "property list uchar float texcoord\nproperty int material\n"
+                       "property ushort flags\nproperty double quality\nend_header\n")
+    pts = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)]
+    vals = [-7, 200, -300, 60000, -70000, 4000000000, 0.5, 0.25] * 2
+    faces = [((0, 1, 2), 3), ((0, 2, 3, 1), 7)]
+    text = ""
+    for k, p in enumerate(pts):
+        text += " ".join(map(str, p)) + " 0 0 1 255 %d 0 255 " % (k * 60) + \
+            " ".join(map(str, vals)) + "\n"
+    for f, m in faces:
+        tc = [c * 0.25 for c in range(2 * len(f))]
+        text += f"{len(f)} " + " ".join(map(str, f)) + f" {len(tc)} " + \
+            " ".join(map(str, tc)) + f" {m} 1 0.5\n"
+    put("ply_ascii", "attributes.ply", hdr("ascii") + text)
+    for order, fmt in (("<", "binary_little_endian"), (">", "binary_big_endian")):
+        codes = "".join(PLY_TYPES[PLY_ALIAS.get(t, t)] for t in PLY_ALL)
+        b = b""
+        for k, p in enumerate(pts):
+            b += struct.pack(order + "6f4B", *p, 0, 0, 1, 255, k * 60, 0, 255)
+            b += struct.pack(order + codes, *vals)
+        for f, m in faces:
+            tc = [c * 0.25 for c in range(2 * len(f))]
+            b += struct.pack(order + "B%di" % len(f), len(f), *f)
+            b += struct.pack(order + "B%df" % len(tc), len(tc), *tc)
+            b += struct.pack(order + "iHd", m, 1, 0.5)
+        put("ply_binary", f"attributes_{fmt}.ply", hdr(fmt).encode() + b)
+    put("points_ply", "attributes.ply", hdr("ascii").split("element face")[0] + "end_header\n"
+        + "".join(" ".join(map(str, p)) + " 0 0 1 1 2 3 4 " + " ".join(map(str, vals)) + "\n"
+                  for p in pts))
+
+
+def stl_attributes():
+    b = b"COLOR=\x80\x40\x20\xff MATERIAL=".ljust(80, b" ") + struct.pack("<I", len(TRIS))
+    for k, t in enumerate(TRIS):
+        b += struct.pack("<3f", 0, 0, 1) + b"".join(struct.pack("<3f", *P[i]) for i in t)
+        b += struct.pack("<H", [0x8000 | 0x7c00, 0x001f, 0, 0xffff, 7, 0x8000][k])
+    put("stl_binary", "attribute_words.stl", b)
+
+
+def msh_fields():
+    n = len(P)
+    nodes22 = "".join(f"{10 + i} {x} {y} {z}\n" for i, (x, y, z) in enumerate(P))
+    els = ["1 15 2 5 1 10", "2 2 2 6 2 10 11 12"] + \
+        [f"{3 + k} 4 2 {7 + k} {3 + k} " + " ".join(str(10 + i) for i in t)
+         for k, t in enumerate(TETS)]
+    data1 = "".join(f"{10 + i} {0.1 * i}\n" for i in range(n))
+    data3 = "".join(f"{10 + i} {i} 0 -1\n" for i in range(n - 1))
+    put("msh22_ascii", "fields.msh",
+        "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$PhysicalNames\n2\n3 7 \"inner\"\n3 8 \"outer\"\n"
+        f"$EndPhysicalNames\n$Nodes\n{n}\n" + nodes22 + f"$EndNodes\n$Elements\n{len(els)}\n"
+        + "\n".join(els) + "\n$EndElements\n"
+        f"$NodeData\n1\n\"size\"\n1\n0.0\n3\n0\n1\n{n}\n" + data1 + "$EndNodeData\n"
+        f"$NodeData\n2\n\"velocity\"\n\"extra\"\n2\n1.5\n2\n4\n0\n3\n{n - 1}\n7\n" + data3
+        + "$EndNodeData\n$ElementData\n1\n\"e\"\n1\n0\n3\n0\n1\n1\n3 1\n$EndElementData\n")
+
+    def bin_node_data(name, comps, rows, fmt_end=b""):
+        b = f"$NodeData\n1\n\"{name}\"\n1\n0.0\n3\n0\n{comps}\n{len(rows)}\n".encode()
+        for tag, vals in rows:
+            b += struct.pack("<i%dd" % comps, tag, *vals)
+        return b + b"\n$EndNodeData\n"
+    b = b"$MeshFormat\n2.2 1 8\n" + struct.pack("<i", 1) + b"\n$EndMeshFormat\n$Nodes\n"
+    b += f"{n}\n".encode() + b"".join(struct.pack("<i3d", 10 + i, *p) for i, p in enumerate(P))
+    b += b"\n$EndNodes\n$Elements\n" + f"{1 + len(TETS)}\n".encode()
+    b += struct.pack("<3i", 15, 1, 2) + struct.pack("<4i", 1, 5, 1, 10)
+    b += struct.pack("<3i", 4, len(TETS), 2)
+    for k, t in enumerate(TETS):
+        b += struct.pack("<7i", 2 + k, 7 + k, 9, *(10 + i for i in t))
+    b += b"\n$EndElements\n"
+    b += bin_node_data("size", 1, [(10 + i, [0.1 * i]) for i in range(n)])
+    b += bin_node_data("v", 3, [(12, [1, 2, 3]), (10, [4, 5, 6])])
+    put("msh22_binary", "fields.msh", b)
+
+    # 4.1: physical tags live in $Entities; $NodeData as in 2.2.
+    text41 = open(ROOT / "msh41_ascii" / "seed_tets.msh").read()
+    text41 = text41.replace("1 0 0 0 1 1 1 0 0\n", "1 0 0 0 1 1 1 2 7 8 0\n")
+    put("msh41_ascii", "fields.msh", text41 + f"$NodeData\n1\n\"size\"\n1\n0.0\n3\n0\n1\n{n}\n"
+        + data1 + "$EndNodeData\n$NodeData\n1\n\"d\"\n0\n3\n0\n3\n2\n10 1 2 3\n14 4 5 6\n"
+        "$EndNodeData\n")
+    b41 = (ROOT / "msh41_binary" / "seed_tets.msh").read_bytes()
+    put("msh41_binary", "fields.msh", b41 + bin_node_data("size", 1, [(10 + i, [0.5 * i])
+                                                                      for i in range(n)])
+        + bin_node_data("d", 2, [(14, [1, 2])]))
+
+
+for make in (obj_attributes, ply_attributes, stl_attributes, msh_fields):
+    make()
