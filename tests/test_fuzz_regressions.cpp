@@ -34,6 +34,17 @@ void check_refused(Parse&& parse, std::string_view bytes,
     }
 }
 
+/// Every attribute column holds `width` values per vertex, face or face corner.
+void check_columns(const surface& s) {
+    for (const attribute_column& a : s.attributes) {
+        std::size_t elements = s.vertices.size();
+        if (a.domain == attribute_domain::face) elements = s.faces.size();
+        if (a.domain == attribute_domain::corner) elements = 3 * s.faces.size();
+        INFO("attribute " << a.name);
+        CHECK(a.values.size() == elements * a.width);
+    }
+}
+
 const auto ply_points = [](std::string_view bytes, std::string_view source) {
     return parse_points(bytes, source, ".ply");
 };
@@ -53,13 +64,13 @@ TEST_CASE("fuzz: every corpus input is read or refused with input_error, in this
             const std::string bytes = detail::read_file(file.path());
             try {
                 if (target == "obj")
-                    (void)parse_obj(bytes, name);
+                    check_columns(parse_obj(bytes, name));
                 else if (target == "off")
-                    (void)parse_off(bytes, name);
+                    check_columns(parse_off(bytes, name));
                 else if (target.starts_with("ply"))
-                    (void)parse_ply(bytes, name);
+                    check_columns(parse_ply(bytes, name));
                 else if (target.starts_with("stl"))
-                    (void)parse_stl(bytes, name);
+                    check_columns(parse_stl(bytes, name));
                 else if (target.starts_with("msh"))
                     (void)parse_msh(bytes, name);
                 else if (target == "points_xyz")
@@ -127,4 +138,16 @@ TEST_CASE("fuzz: OBJ relative index INT64_MIN is refused without overflow") {
         [](std::string_view b, std::string_view s) { return parse_obj(b, s); },
         "v 0 0 0\nv 1 0 0\nf 1 2 -9223372036854775808\n",
         {"line 3", "relative index -9223372036854775808", "points before the first vertex"});
+}
+
+TEST_CASE("fuzz: a PLY face with two texcoord lists is refused") {
+    // Both lists' values went to the second column: the first "texcoord" corner column
+    // was left with no values for a face that has three corners (found by the fuzz
+    // harness's attribute check, tests/fuzz/fuzz_support.hpp).
+    check_refused([](std::string_view b, std::string_view s) { return parse_ply(b, s); },
+                  "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                  "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+                  "property list uchar float texcoord\nproperty list uchar float texcoord\n"
+                  "end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2 6 0 0 1 0 0 1 0\n",
+                  {"two texcoord lists"});
 }

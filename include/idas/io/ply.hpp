@@ -295,6 +295,7 @@ private:
     void add_attribute_roles(const ply_element& e, std::vector<ply_role>& roles,
                              std::vector<std::size_t>& columns, attribute_domain domain) {
         if (!options_.attributes) return;
+        bool texcoord_seen = false;
         for (std::size_t pi = 0; pi < e.properties.size(); ++pi) {
             const ply_property& p = e.properties[pi];
             if (roles[pi] != ply_role::skip) continue;
@@ -305,6 +306,9 @@ private:
                     {p.name, domain, static_cast<scalar_type>(p.type), 1, {}, {}});
             } else if (domain == attribute_domain::face && p.name == "texcoord" &&
                        !ply_is_integer(p.type)) {
+                // A face keeps the values of one texcoord list per corner.
+                if (texcoord_seen) fail(source_, "the face element has two texcoord lists");
+                texcoord_seen = true;
                 roles[pi] = ply_role::texcoord;
                 columns[pi] = surface_.attributes.size();
                 surface_.attributes.push_back({p.name,
