@@ -2,8 +2,8 @@
 // bench/run_decimation.sh. Not a Google Benchmark program: each run lasts seconds, and
 // peak memory is only meaningful for a process that does one thing.
 //
-//   bench_decimation --peer P --input x1|x4|x16 --ratio R [--threads T] [--samples N]
-//                    [--data FILE.obj]
+//   bench_decimation --peer P --input x1|x4|x16|bunny|box --ratio R [--threads T]
+//                    [--samples N] [--data FILE.obj] [--shuffle SEED] [--serial-tail N]
 //
 // Peers (shortest edge collapse, then quadric decimation):
 //   idas-sec        idas::algorithms::shortest_edge_collapse<true> (link condition, no normal flip)
@@ -24,9 +24,16 @@
 //                   (binary, 90 degrees: refuses normal flips); halfedge collapses, so the
 //                   merged vertex stays at an endpoint
 //
-// The input is data/armadillo.obj (86,482 faces, closed, genus 0) refined at run time by
-// 1-to-4 midpoint subdivision: x4 = one level (345,928 faces), x16 = two (1,383,712).
-// The target is round(ratio * input faces) faces.
+// Inputs: x1 is data/armadillo.obj (86,482 faces, closed, genus 0; --data replaces it),
+// refined at run time by 1-to-4 midpoint subdivision: x4 = one level (345,928 faces),
+// x16 = two (1,383,712). bunny is data/bunny.off (6,966 faces, closed, genus 0); box a unit
+// cube, each side a 32 x 32 grid of right triangles with shared vertices (12,288 faces,
+// made at run time: a CAD-like input, flat sides and sharp edges).
+// The target is round(ratio * input faces) faces. --shuffle SEED (not 0) renumbers the
+// input's vertices and faces at random and rotates each face's corners: the same surface,
+// other tie-breaks, to see how much a serial run's distances depend on the input's order.
+// --serial-tail N (experiment) leaves a parallel run's final serial pass target + N faces
+// per part instead of the library's 512 (idas peers on vertex_try_lock only).
 //
 // Measured, and printed as one JSON object on one line:
 //   seconds_algorithm  wall time of the decimation call(s) only; see `timed` in each peer.
@@ -37,10 +44,11 @@
 //                      diagonal, by CGAL::Polygon_mesh_processing::approximate_Hausdorff_distance
 //                      on CGAL Surface_mesh copies of input and output, for every peer alike:
 //                      random uniform samples on faces at one fixed density (`--samples` per
-//                      armadillo surface area; the subdivided inputs have the same area) plus
-//                      every vertex, fixed seed; `--samples 0` skips them. The input side is
-//                      armadillo itself, the same surface as its subdivisions. out_in samples
-//                      the output and measures to the input (how far the result strays);
+//                      base surface area: armadillo's for x1/x4/x16, which all have the same
+//                      area; bunny's or the box's for those) plus every vertex, fixed seed;
+//                      `--samples 0` skips them. The input side is the base surface (for
+//                      x4/x16 armadillo itself, the same surface as its subdivisions). out_in
+//                      samples the output and measures to the input (how far the result strays);
 //                      symmetric is the max of both ways.
 //   peak_rss_delta_mb  getrusage(RUSAGE_SELF) peak RSS once the decimation is done and its
 //                      result extracted (before the Hausdorff step), minus the RSS once the
@@ -49,6 +57,9 @@
 //                      loading (writing 5 to /proc/self/clear_refs) so the subdivision's
 //                      temporary hash map does not hide it; `peak_reset` says whether it was.
 //   manifold, euler    topology of the output face list (the input has Euler characteristic 2).
+//   idas peers also print their run_report's counters and phase times (setup_seconds: the
+//   spec's set-up and seeding the queues; tail_seconds: the final serial pass of a parallel
+//   run).
 #include <idas/algorithms/qslim.hpp>
 #include <idas/algorithms/shortest_edge_collapse.hpp>
 #include <idas/io/io.hpp>
@@ -72,6 +83,7 @@
 #include <OpenMesh/Tools/Decimater/ModNormalFlippingT.hh>
 #include <OpenMesh/Tools/Decimater/ModQuadricT.hh>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -81,6 +93,8 @@
 #include <exception>
 #include <fstream>
 #include <limits>
+#include <numeric>
+#include <random>
 #include <string>
 #include <unordered_map>
 #include <utility>
@@ -147,9 +161,30 @@ surface with_attributes(const surface& in) {
     return s;
 }
 
-template <class Algorithm, class Spec>
+/// --serial-tail N (an experiment, not a library setting): a parallel run leaves the final
+/// serial pass `target + N * parts` faces instead of the library's
+/// face_target::tail_faces_per_part (512) per part. Negative: the library's own.
+std::int64_t serial_tail_per_part = -1;
+
+template <class Base>
+struct serial_tail_override : Base {
+    template <class Mesh>
+    void prepare(Mesh& m, const idas::exec_options& o) {
+        Base::prepare(m, o);
+        if (this->serial_tail > 0)
+            this->serial_tail = this->target_faces + serial_tail_per_part *
+                                                         std::int64_t(o.threads) *
+                                                         std::max(1u, o.parts_per_thread);
+    }
+};
+
+template <class Algorithm, class Spec, bool Overridden = false>
 run_result run_idas(const surface& in, std::int64_t target, unsigned threads,
                     bool attributes = false) {
+    if constexpr (!Overridden && !idas::deterministic_policy<typename Algorithm::lock_type>)
+        if (serial_tail_per_part >= 0)
+            return run_idas<typename Algorithm::template with_spec<serial_tail_override<Spec>>,
+                            serial_tail_override<Spec>, true>(in, target, threads, attributes);
     idas_mesh m(in.vertices, in.faces);
     Spec spec;
     spec.target_faces = target;
@@ -181,6 +216,8 @@ run_result run_idas(const surface& in, std::int64_t target, unsigned threads,
     member("deferred_to_serial", r.deferred_to_serial);
     member("stolen", r.stolen);
     member("rounds", r.rounds);
+    out.extra += ",\"setup_seconds\":" + std::to_string(r.setup_seconds) +
+                 ",\"tail_seconds\":" + std::to_string(r.tail_seconds);
     return out;
 }
 
@@ -306,16 +343,38 @@ struct options {
     std::string peer, input = "x4", data = std::string(IDAS_DATA_DIR) + "/armadillo.obj";
     double ratio = 0.1;
     unsigned threads = 1;
-    double samples = 1e6; // face samples per armadillo surface area
+    double samples = 1e6;       // face samples per base surface area
+    unsigned shuffle = 0;       // 0: the input as made; else the seed of a random renumbering
+    long long serial_tail = -1; // faces per part left to the final serial pass (-1: library's)
 };
+
+/// The same surface with its vertices and faces renumbered at random and each face's
+/// corners rotated (orientation kept).
+surface shuffled(const surface& s, unsigned seed) {
+    std::mt19937_64 rng(seed);
+    std::vector<index_t> order(s.vertices.size()), id(s.vertices.size());
+    std::iota(order.begin(), order.end(), index_t{0});
+    std::shuffle(order.begin(), order.end(), rng);
+    surface out;
+    out.vertices.reserve(s.vertices.size());
+    for (index_t v : order)
+        id[v] = static_cast<index_t>(out.vertices.size()), out.vertices.push_back(s.vertices[v]);
+    out.faces = s.faces;
+    std::shuffle(out.faces.begin(), out.faces.end(), rng);
+    for (tri_indices& f : out.faces) {
+        const auto k = rng() % 3;
+        f = {id[f[k]], id[f[(k + 1) % 3]], id[f[(k + 2) % 3]]};
+    }
+    return out;
+}
 
 [[noreturn]] void usage(const std::string& message) {
     std::fprintf(stderr,
                  "bench_decimation: %s\n"
                  "usage: bench_decimation --peer idas-sec|idas-sec-det|cgal-sec|idas-qslim|"
                  "idas-qslim-det|idas-sec-attr|idas-qslim-attr|cgal-gh|openmesh-quadric\n"
-                 "         [--input x1|x4|x16] [--ratio R] [--threads T] [--samples N]"
-                 " [--data FILE.obj]\n",
+                 "         [--input x1|x4|x16|bunny|box] [--ratio R] [--threads T] [--samples N]"
+                 " [--data FILE.obj] [--shuffle SEED] [--serial-tail N]\n",
                  message.c_str());
     std::exit(2);
 }
@@ -338,14 +397,19 @@ options parse(int argc, char** argv) {
             o.samples = std::stod(v);
         else if (a == "--data")
             o.data = v;
+        else if (a == "--shuffle")
+            o.shuffle = static_cast<unsigned>(std::stoul(v));
+        else if (a == "--serial-tail")
+            o.serial_tail = std::stoll(v);
         else
             usage("unknown option " + a);
     }
     if (o.peer.empty()) usage("--peer is required");
     if (!(o.ratio > 0 && o.ratio <= 1)) usage("--ratio must be in (0, 1]");
     if (o.threads == 0) usage("--threads must be at least 1");
-    if (o.input != "x1" && o.input != "x4" && o.input != "x16")
-        usage("--input must be x1, x4 or x16");
+    if (o.input != "x1" && o.input != "x4" && o.input != "x16" && o.input != "bunny" &&
+        o.input != "box")
+        usage("--input must be x1, x4, x16, bunny or box");
     if (o.threads != 1 && o.peer.rfind("idas", 0) != 0) usage("only idas peers take --threads");
     return o;
 }
@@ -353,12 +417,19 @@ options parse(int argc, char** argv) {
 int run(const options& o) {
     // The subdivided inputs lie exactly on armadillo's surface (midpoints of its edges, flat
     // splits of its faces), so distances to the input are measured to armadillo itself:
-    // the same surface, with a 16x smaller search tree for the x16 input.
-    const surface base = idas::io::read_surface(o.data);
+    // the same surface, with a 16x smaller search tree for the x16 input. bunny and box are
+    // their own base.
+    const surface base =
+        o.input == "box" ? subdivided_cube(32)
+        : o.input == "bunny"
+            ? drop_unreferenced(idas::io::read_surface(std::string(IDAS_DATA_DIR) + "/bunny.off"))
+            : idas::io::read_surface(o.data);
     const double area = surface_area(base);
-    const int levels = o.input == "x1" ? 0 : (o.input == "x4" ? 1 : 2);
+    const int levels = o.input == "x4" ? 1 : (o.input == "x16" ? 2 : 0);
     surface in = base;
     for (int l = 0; l < levels; ++l) in = subdivide(in);
+    if (o.shuffle != 0) in = shuffled(in, o.shuffle);
+    serial_tail_per_part = o.serial_tail;
     const double diagonal = bbox_diagonal(in);
     const auto input_faces = static_cast<std::int64_t>(in.faces.size());
     const auto target = static_cast<std::int64_t>(std::llround(o.ratio * double(input_faces)));
@@ -431,13 +502,14 @@ int run(const options& o) {
         "\"output_faces\":%lld,\"output_vertices\":%zu,\"face_error\":%.6g,"
         "\"hausdorff_out_in\":%.6g,\"hausdorff_symmetric\":%.6g,\"hausdorff_samples_per_area\":%g,"
         "\"seconds_hausdorff\":%.3f,\"rss_loaded_mb\":%.1f,\"peak_rss_mb\":%.1f,"
-        "\"peak_rss_delta_mb\":%.1f,\"peak_reset\":%s,\"manifold\":%s,\"euler\":%ld%s}\n",
+        "\"peak_rss_delta_mb\":%.1f,\"peak_reset\":%s,\"manifold\":%s,\"euler\":%ld,"
+        "\"shuffle\":%u,\"serial_tail_per_part\":%lld%s}\n",
         o.peer.c_str(), algorithm.c_str(), o.input.c_str(), (long long)input_faces, o.ratio,
         (long long)target, o.threads, r.seconds, (long long)output_faces, r.output.vertices.size(),
         double(output_faces - target) / double(target), h_out_in, std::max(h_out_in, h_in_out),
         o.samples, h_seconds, rss_loaded, peak, peak - rss_loaded, peak_reset ? "true" : "false",
-        topo.editable() ? "true" : "false", static_cast<long>(topo.euler_characteristic),
-        r.extra.c_str());
+        topo.editable() ? "true" : "false", static_cast<long>(topo.euler_characteristic), o.shuffle,
+        o.serial_tail, r.extra.c_str());
     return 0;
 }
 

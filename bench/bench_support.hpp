@@ -1,6 +1,7 @@
 // Pieces shared by the one-run-per-process benchmark drivers (bench_decimation,
-// bench_remeshing): a stopwatch, 1-to-4 subdivision of the input, surface measures, peak
-// memory, conversion to and from CGAL Surface_mesh, and CGAL's sampled Hausdorff distance.
+// bench_remeshing): a stopwatch, 1-to-4 subdivision of the input, a subdivided cube,
+// surface measures, peak memory, conversion to and from CGAL Surface_mesh, and CGAL's
+// sampled Hausdorff distance.
 // Needs CGAL (header-only) and TBB (CGAL's parallel sampling).
 #pragma once
 
@@ -12,6 +13,7 @@
 #include <CGAL/Surface_mesh.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
@@ -95,6 +97,40 @@ inline surface drop_unreferenced(const surface& s) {
             v = id[v];
         }
     return out;
+}
+
+/// A unit cube, each side an n x n grid of right triangles, vertices shared, outward: a
+/// CAD-like input with flat sides and sharp edges (n = 32: 12,288 faces). The same
+/// construction as tests/test_support.hpp's subdivided_cube, on face arrays.
+inline surface subdivided_cube(int n) {
+    surface s;
+    std::unordered_map<std::uint64_t, index_t> id;
+    auto at = [&](const std::array<int, 3>& c) {
+        const std::uint64_t key =
+            (std::uint64_t(c[0]) * std::uint64_t(n + 1) + std::uint64_t(c[1])) *
+                std::uint64_t(n + 1) +
+            std::uint64_t(c[2]);
+        const auto [it, fresh] = id.try_emplace(key, static_cast<index_t>(s.vertices.size()));
+        if (fresh) s.vertices.push_back({double(c[0]) / n, double(c[1]) / n, double(c[2]) / n});
+        return it->second;
+    };
+    for (int axis = 0; axis < 3; ++axis)
+        for (int side = 0; side < 2; ++side)
+            for (int i = 0; i < n; ++i)
+                for (int j = 0; j < n; ++j) {
+                    auto p = [&](int u, int w) {
+                        std::array<int, 3> c{};
+                        c[axis] = side * n, c[(axis + 1) % 3] = u, c[(axis + 2) % 3] = w;
+                        return at(c);
+                    };
+                    const index_t a = p(i, j), b = p(i + 1, j), c = p(i + 1, j + 1),
+                                  d = p(i, j + 1);
+                    if (side == 1)
+                        s.faces.push_back({a, b, c}), s.faces.push_back({a, c, d});
+                    else
+                        s.faces.push_back({a, c, b}), s.faces.push_back({a, d, c});
+                }
+    return s;
 }
 
 inline double surface_area(const surface& s) {
