@@ -4,6 +4,7 @@
 //
 //   bench_decimation --peer P --input x1|x4|x16|bunny|box --ratio R [--threads T]
 //                    [--samples N] [--data FILE.obj] [--shuffle SEED] [--serial-tail N]
+//                    [--self-intersections]
 //
 // Peers (shortest edge collapse, then quadric decimation):
 //   idas-sec        idas::algorithms::shortest_edge_collapse<true> (link condition, no normal flip)
@@ -34,6 +35,9 @@
 // other tie-breaks, to see how much a serial run's distances depend on the input's order.
 // --serial-tail N (experiment) leaves a parallel run's final serial pass target + N faces
 // per part instead of the library's 512 (idas peers on vertex_try_lock only).
+// --self-intersections: the idas peers refuse collapses that make faces meet (the index is
+// built inside the timed call). Every peer reports `self_intersections`, the face pairs of
+// its output that meet (exact).
 //
 // Measured, and printed as one JSON object on one line:
 //   seconds_algorithm  wall time of the decimation call(s) only; see `timed` in each peer.
@@ -62,6 +66,7 @@
 //   run).
 #include <idas/algorithms/qslim.hpp>
 #include <idas/algorithms/shortest_edge_collapse.hpp>
+#include <idas/invariants/no_self_intersection.hpp>
 #include <idas/io/io.hpp>
 #include <idas/mesh/topology_report.hpp>
 #include <idas/mesh/tri_mesh.hpp>
@@ -94,6 +99,7 @@
 #include <fstream>
 #include <limits>
 #include <numeric>
+#include <optional>
 #include <random>
 #include <string>
 #include <unordered_map>
@@ -166,6 +172,10 @@ surface with_attributes(const surface& in) {
 /// face_target::tail_faces_per_part (512) per part. Negative: the library's own.
 std::int64_t serial_tail_per_part = -1;
 
+/// --self-intersections: the idas peers refuse collapses that make faces meet (the
+/// no_self_intersection invariant; its index is built inside the timed run).
+bool refuse_self_intersections = false;
+
 template <class Base>
 struct serial_tail_override : Base {
     template <class Mesh>
@@ -193,8 +203,11 @@ run_result run_idas(const surface& in, std::int64_t target, unsigned threads,
     idas::algorithms::attribute_transfer transfer;
     const surface carried = attributes ? with_attributes(in) : surface{};
     // Includes the spec's one-off set-up (QSlim's quadrics) and filling the queue.
+    std::optional<idas::self_intersection_index> index;
     out.seconds = timed([&] {
         if (attributes) transfer.attach(m, carried), spec.transfer = &transfer;
+        if (refuse_self_intersections)
+            index.emplace(m), spec.self_intersections = idas::no_self_intersection(*index);
         r = Algorithm::run(m, spec, {.threads = threads});
     });
     std::tie(out.output.vertices, out.output.faces) = m.to_arrays();
@@ -374,7 +387,8 @@ surface shuffled(const surface& s, unsigned seed) {
                  "usage: bench_decimation --peer idas-sec|idas-sec-det|cgal-sec|idas-qslim|"
                  "idas-qslim-det|idas-sec-attr|idas-qslim-attr|cgal-gh|openmesh-quadric\n"
                  "         [--input x1|x4|x16|bunny|box] [--ratio R] [--threads T] [--samples N]"
-                 " [--data FILE.obj] [--shuffle SEED] [--serial-tail N]\n",
+                 " [--data FILE.obj] [--shuffle SEED] [--serial-tail N]\n"
+                 "         [--self-intersections]\n",
                  message.c_str());
     std::exit(2);
 }
@@ -383,6 +397,10 @@ options parse(int argc, char** argv) {
     options o;
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
+        if (a == "--self-intersections") {
+            refuse_self_intersections = true;
+            continue;
+        }
         if (i + 1 >= argc) usage("missing value after " + a);
         const std::string v = argv[++i];
         if (a == "--peer")
@@ -486,6 +504,10 @@ int run(const options& o) {
         idas::diagnose_topology(r.output.vertices.size(), r.output.faces);
     const auto output_faces = static_cast<std::int64_t>(r.output.faces.size());
 
+    // Face pairs of the output that meet (exact), for every peer.
+    const std::size_t crossings =
+        idas::count_self_intersections(idas_mesh(r.output.vertices, r.output.faces));
+
     double h_out_in = -1, h_in_out = -1, h_seconds = 0;
     if (o.samples > 0 && output_faces > 0) {
         const stopwatch clock;
@@ -503,13 +525,14 @@ int run(const options& o) {
         "\"hausdorff_out_in\":%.6g,\"hausdorff_symmetric\":%.6g,\"hausdorff_samples_per_area\":%g,"
         "\"seconds_hausdorff\":%.3f,\"rss_loaded_mb\":%.1f,\"peak_rss_mb\":%.1f,"
         "\"peak_rss_delta_mb\":%.1f,\"peak_reset\":%s,\"manifold\":%s,\"euler\":%ld,"
-        "\"shuffle\":%u,\"serial_tail_per_part\":%lld%s}\n",
+        "\"shuffle\":%u,\"serial_tail_per_part\":%lld,\"refuse_self_intersections\":%s,"
+        "\"self_intersections\":%zu%s}\n",
         o.peer.c_str(), algorithm.c_str(), o.input.c_str(), (long long)input_faces, o.ratio,
         (long long)target, o.threads, r.seconds, (long long)output_faces, r.output.vertices.size(),
         double(output_faces - target) / double(target), h_out_in, std::max(h_out_in, h_in_out),
         o.samples, h_seconds, rss_loaded, peak, peak - rss_loaded, peak_reset ? "true" : "false",
         topo.editable() ? "true" : "false", static_cast<long>(topo.euler_characteristic), o.shuffle,
-        o.serial_tail, r.extra.c_str());
+        o.serial_tail, refuse_self_intersections ? "true" : "false", crossings, r.extra.c_str());
     return 0;
 }
 

@@ -15,6 +15,7 @@ struct remesh_arguments {
     bool as_json = false, ascii = false;
     bool deterministic = false; // lock::deterministic_rounds
     bool drop_attributes = false;
+    bool allow_self_intersections = false; // no_self_intersection off
     std::string backend = "indexed";
     // The default output limit: about 15 GB while remeshing (connectivity, queues,
     // attributes and the written copy take some 150 bytes per face).
@@ -102,22 +103,29 @@ int run_remesh(const remesh_arguments& a) {
     phases.lap("attributes");
 
     idas::algorithms::remeshing_report r;
+    // Faces that meet other faces are refused unless asked otherwise; the index of faces
+    // lives through every phase, with cells of a few target lengths.
+    std::optional<idas::self_intersection_index> index;
+    if (!a.allow_self_intersections) index.emplace(m, 4 * o.target_length);
+    const idas::no_self_intersection guard =
+        index ? idas::no_self_intersection(*index) : idas::no_self_intersection();
+    phases.lap("self_intersection_index");
     if (a.envelope_option && a.envelope_option->count() > 0) {
 #if IDAS_CLI_HAVE_CGAL
         if (!std::isfinite(a.envelope * in_stats.diagonal))
             throw idas::input_error(
                 fmt::format("--envelope {} is too large for {}", a.envelope, a.in));
         const idas::envelope env(s.vertices, s.faces, a.envelope * in_stats.diagonal);
-        r = a.deterministic ? remesh_with<idas::lock::deterministic_rounds>(m, o, a.threads, env)
-                            : remesh_with<idas::lock::vertex_try_lock>(m, o, a.threads, env);
+        r = a.deterministic
+                ? remesh_with<idas::lock::deterministic_rounds>(m, o, a.threads, env, guard)
+                : remesh_with<idas::lock::vertex_try_lock>(m, o, a.threads, env, guard);
 #else
         throw idas::input_error("--envelope needs a build with CGAL");
 #endif
     } else {
-        r = a.deterministic ? remesh_with<idas::lock::deterministic_rounds>(m, o, a.threads)
-                            : remesh_with<idas::lock::vertex_try_lock>(m, o, a.threads);
+        r = a.deterministic ? remesh_with<idas::lock::deterministic_rounds>(m, o, a.threads, guard)
+                            : remesh_with<idas::lock::vertex_try_lock>(m, o, a.threads, guard);
     }
-
     phases.lap("remeshing", r.setup_seconds, r.tail_seconds);
     idas::io::surface result;
     std::tie(result.vertices, result.faces) = m.to_arrays();
@@ -140,6 +148,7 @@ int run_remesh(const remesh_arguments& a) {
         j["output_faces"] = result.faces.size();
         j["threads"] = a.threads;
         j["deterministic"] = a.deterministic;
+        j["self_intersections_refused"] = !a.allow_self_intersections;
         j["backend"] = a.backend;
         j["iterations"] = r.iterations;
         j["envelope"] =

@@ -1,21 +1,24 @@
 // idas: the command-line tool.
 //
-//   idas info IN [--json]                      statistics and topology of a mesh file
+//   idas info IN [--json] [--self-intersections]
+//                                              statistics and topology of a mesh file
 //   idas convert IN OUT [--ascii] [--msh-version V]
 //                                              any supported format to any other
 //   idas demo IN OUT [--json] [--seed S] [--ops N] [--ascii] [--backend B]
 //                                              random local operations guarded by invariants
 //   idas decimate IN OUT (--ratio R | --faces N) [--algorithm A] [--threads T] [--backend B]
-//                 [--deterministic]           shortest edge collapse or QSlim
+//                 [--deterministic] [--allow-self-intersections]
+//                                              shortest edge collapse or QSlim
 //   idas remesh IN OUT --edge-length L [--absolute] [--iterations K] [--threads T]
-//               [--envelope EPS] [--backend B] [--deterministic]
+//               [--envelope EPS] [--backend B] [--deterministic] [--allow-self-intersections]
 //                                              isotropic remeshing (cli_remesh.hpp)
 //   idas harmonic OUT (--points IN | --gaussian N [--seed S]) [--mode M] [--threads T]
 //                                              harmonic triangulation of points (cli_harmonic.hpp)
 //   idas tetmesh IN OUT.msh [--epsilon E] [--edge-length L] [--absolute] [--threads T]
 //                                              tet mesh of a triangle soup (cli_tetmesh.hpp)
 // --deterministic (decimate, remesh, harmonic): lock::deterministic_rounds, the same
-// output file at every thread count.
+// output file at every thread count. decimate and remesh refuse operations that would make
+// faces meet (no_self_intersection) unless --allow-self-intersections is given.
 // B is the triangle connectivity backend, indexed (default) or corner-table (harmonic:
 // tet backend, indexed or adjacency).
 // Surface or tets is decided by the extension: .msh is a tet mesh (MSH 2.2/4.1, read and
@@ -31,6 +34,7 @@
 #include <idas/algorithms/qslim.hpp>
 #include <idas/algorithms/shortest_edge_collapse.hpp>
 #include <idas/idas.hpp>
+#include <idas/invariants/no_self_intersection.hpp>
 #include <idas/io/io.hpp>
 #include <idas/io/msh.hpp>
 #include <idas/io/vtu.hpp>
@@ -531,16 +535,29 @@ struct carried_attributes {
 
 // ---- info ----------------------------------------------------------------------------------
 
-int run_info(const std::string& in, bool as_json) {
+/// A surface file's faces as idas::count_self_intersections reads a mesh: any soup.
+struct soup_view {
+    const idas::io::surface& s;
+    idas::index_t face_slots() const noexcept { return idas::index_t(s.faces.size()); }
+    static constexpr bool face_alive(idas::index_t) noexcept { return true; }
+    const idas::tri_indices& face_vertices(idas::index_t f) const noexcept { return s.faces[f]; }
+    const vec3& position(idas::index_t v) const noexcept { return s.vertices[v]; }
+};
+
+int run_info(const std::string& in, bool as_json, bool self_intersections) {
     phase_times phases;
     const idas::io::surface s = load(in);
     phases.lap("read");
     const mesh_stats st = compute_stats(s);
     phases.lap("statistics");
+    std::optional<std::size_t> crossings;
+    if (self_intersections) crossings = idas::count_self_intersections(soup_view{s});
+    phases.lap("self_intersections");
     if (as_json) {
         json j;
         j["file"] = in;
         j.update(stats_json(st));
+        if (crossings) j["self_intersections"] = *crossings;
         j["attributes"] = attributes_json(s);
         j["seconds"] = phases.total();
         j["phases"] = phases.to_json();
@@ -548,6 +565,7 @@ int run_info(const std::string& in, bool as_json) {
     } else {
         fmt::print("{}\n", in);
         print_stats(st);
+        if (crossings) fmt::print("self-intersecting face pairs: {}\n", *crossings);
         fmt::print("attributes: {}\n", s.attributes.empty() ? "none" : describe_attributes(s));
     }
     return 0;
@@ -808,11 +826,13 @@ struct with_progress_bar : Base {
 
 template <class Algorithm, class Spec, class Mesh>
 idas::run_report decimate_with(Mesh& m, std::int64_t target, unsigned threads,
-                               const idas::algorithms::attribute_transfer* transfer) {
+                               const idas::algorithms::attribute_transfer* transfer,
+                               idas::no_self_intersection guard) {
     terminal_progress bar("decimate");
     with_progress_bar<Spec> spec;
     spec.target_faces = target;
     spec.transfer = transfer;
+    spec.self_intersections = guard;
     spec.start_faces = static_cast<std::int64_t>(m.n_faces());
     spec.bar = bar.enabled() ? &bar : nullptr;
     idas::exec_options options;
@@ -824,6 +844,7 @@ idas::run_report decimate_with(Mesh& m, std::int64_t target, unsigned threads,
 struct decimate_keeping {
     bool drop_attributes = false;
     bool keep_boundary = false;
+    bool allow_self_intersections = false;
     double feature_angle = -1;
     CLI::Option* feature_angle_option = nullptr;
 };
@@ -866,13 +887,21 @@ int run_decimate(const std::string& in, const std::string& out, const std::strin
     const attribute_transfer* transfer = carried.attach(m, s, keep);
     phases.lap("attributes");
 
+    // Collapses that make faces meet are refused unless asked otherwise.
+    std::optional<idas::self_intersection_index> index;
+    if (!keeping.allow_self_intersections) index.emplace(m);
+    const idas::no_self_intersection guard =
+        index ? idas::no_self_intersection(*index) : idas::no_self_intersection();
+    phases.lap("self_intersection_index");
+
     idas::run_report r;
     const auto run = [&]<class Lock>(std::type_identity<Lock>) {
         if (algorithm == "qslim")
-            r = decimate_with<qslim<mesh_t, Lock>, qslim_spec>(m, target, threads, transfer);
+            r = decimate_with<qslim<mesh_t, Lock>, qslim_spec>(m, target, threads, transfer, guard);
         else
             r = decimate_with<shortest_edge_collapse<true, mesh_t, Lock>,
-                              shortest_edge_collapse_spec<true>>(m, target, threads, transfer);
+                              shortest_edge_collapse_spec<true>>(m, target, threads, transfer,
+                                                                 guard);
     };
     if (deterministic)
         run(std::type_identity<idas::lock::deterministic_rounds>{});
@@ -903,6 +932,7 @@ int run_decimate(const std::string& in, const std::string& out, const std::strin
         j["output_vertices"] = result.vertices.size();
         j["threads"] = threads;
         j["deterministic"] = deterministic;
+        j["self_intersections_refused"] = !keeping.allow_self_intersections;
         j["rounds"] = r.rounds;
         j["attributes"] = attributes_json(result);
         j["constrained_vertices"] = transfer ? carried.transfer.constrained_count(m) : 0;
@@ -973,6 +1003,10 @@ int run(int argc, char** argv) {
     auto* info = app.add_subcommand("info", "Print statistics and topology of a mesh");
     info->add_option("IN", in, "input mesh file (.msh: tetrahedral mesh)")->required();
     info->add_flag("--json", as_json, "print one JSON object instead of text");
+    bool self_intersections = false;
+    info->add_flag("--self-intersections", self_intersections,
+                   "count the pairs of faces that meet other than at shared vertices and edges "
+                   "(exact)");
 
     auto* convert = app.add_subcommand("convert", "Convert a mesh between file formats");
     convert->add_option("IN", in, "input mesh file")->required();
@@ -1030,6 +1064,8 @@ int run(int argc, char** argv) {
                        "tags)");
     decimate->add_flag("--keep-boundary", keeping.keep_boundary,
                        "no boundary vertex moves or disappears");
+    decimate->add_flag("--allow-self-intersections", keeping.allow_self_intersections,
+                       "do not refuse collapses that make faces meet (faster)");
     keeping.feature_angle_option = decimate->add_option(
         "--feature-angle", keeping.feature_angle,
         "no vertex on an edge sharper than this dihedral angle (degrees) moves or disappears");
@@ -1067,6 +1103,8 @@ int run(int argc, char** argv) {
         ->check(unsigned_integer)
         ->capture_default_str();
     remesh->add_flag("!--free-boundary", ra.keep_boundary, "let boundary vertices move and vanish");
+    remesh->add_flag("--allow-self-intersections", ra.allow_self_intersections,
+                     "do not refuse operations that make faces meet (faster)");
     remesh->add_flag("--deterministic", ra.deterministic,
                      "the same output at every thread count (deterministic rounds)");
     remesh->add_flag("--json", ra.as_json, "print one JSON object instead of text");
@@ -1099,7 +1137,9 @@ int run(int argc, char** argv) {
         return error(2, message + " (run 'idas --help' for usage)");
     }
 
-    if (info->parsed()) return is_tet_path(in) ? run_tet_info(in, as_json) : run_info(in, as_json);
+    if (info->parsed())
+        return is_tet_path(in) ? run_tet_info(in, as_json)
+                               : run_info(in, as_json, self_intersections);
     if (remesh->parsed())
         return with_backend(
             ra.backend, [&]<class Mesh>(std::type_identity<Mesh>) { return run_remesh<Mesh>(ra); });

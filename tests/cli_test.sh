@@ -209,7 +209,7 @@ for alg in qslim shortest-edge; do
         expect_field "decimate $alg t=$t" "abs(d['output_faces'] - 6945) <= 69" True
         expect_field "decimate $alg t=$t" "d['seconds_algorithm'] <= d['seconds_total']" True
         expect_field "decimate $alg t=$t phases" "list(d['phases'])" \
-            "['read', 'build', 'attributes', 'decimation_setup', 'decimation', 'decimation_serial_tail', 'export', 'check', 'write', 'total']"
+            "['read', 'build', 'attributes', 'self_intersection_index', 'decimation_setup', 'decimation', 'decimation_serial_tail', 'export', 'check', 'write', 'total']"
         expect_field "decimate $alg t=$t phases" \
             "min(d['phases'].values()) >= 0 and sum(v for k, v in d['phases'].items() if k != 'total') <= d['phases']['total'] + 1e-6" True
         run info "$TMP/dec_${alg}_$t.ply" --json
@@ -866,6 +866,76 @@ if [ "$(grep -c '^vt ' "$TMP/blub_rem.obj")" -gt 100 ]; then ok; else fail "reme
 run --version
 expect_rc "--version" 0
 if grep -q '^idas [0-9]*\.[0-9]*\.[0-9]*$' "$TMP/out"; then ok; else fail "--version: $(cat "$TMP/out")"; fi
+
+# ---- self-intersections (issue 16 item 5 b) --------------------------------------------------
+# A thin bumpy plate (tests/test_support.hpp's noisy_thin_plate): two nearly touching sheets,
+# where QSlim to 10% without the invariant folds one through the other.
+python3 - "$TMP/plate.obj" <<'PY'
+import sys
+n, thickness, noise = 32, 0.02, 0.5
+ids, verts, faces = {}, [], []
+def at(c):
+    if c not in ids:
+        ids[c] = len(verts)
+        x, y, z = (v / n for v in c)
+        bump = 0.0
+        if c[2] in (0, n) and 0 < c[0] < n and 0 < c[1] < n:
+            h = ((c[0] * 73856093) ^ (c[1] * 19349663) ^ (c[2] * 83492791)) & 0xffffffff
+            h = (h * 2654435761) & 0xffffffff
+            bump = noise * (((h >> 8) % 1000) / 1000.0 - 0.5)
+        verts.append((x, y, thickness * (z + bump)))
+    return ids[c]
+for axis in range(3):
+    for side in range(2):
+        for i in range(n):
+            for j in range(n):
+                def p(u, w):
+                    c = [0, 0, 0]
+                    c[axis], c[(axis + 1) % 3], c[(axis + 2) % 3] = side * n, u, w
+                    return at(tuple(c))
+                a, b, c, d = p(i, j), p(i + 1, j), p(i + 1, j + 1), p(i, j + 1)
+                faces += [(a, b, c), (a, c, d)] if side else [(a, c, b), (a, d, c)]
+with open(sys.argv[1], "w") as f:
+    f.writelines("v %.17g %.17g %.17g\n" % v for v in verts)
+    f.writelines("f %d %d %d\n" % (a + 1, b + 1, c + 1) for a, b, c in faces)
+PY
+# crossings FILE: the exact count of face pairs of FILE that meet (idas info).
+crossings() {
+    run info "$1" --self-intersections --json
+    field "d['self_intersections']"
+}
+expect_value() {
+    if [ "$2" = "$3" ]; then ok; else fail "$1: got '$2', expected '$3'"; fi
+}
+expect_value "info --self-intersections: the plate" "$(crossings "$TMP/plate.obj")" 0
+run info "$TMP/plate.obj" --self-intersections
+if grep -q '^self-intersecting face pairs: 0$' "$TMP/out"; then ok; else fail "info --self-intersections: text line missing"; fi
+run info "$TMP/plate.obj" --json
+expect_field "info without --self-intersections" "'self_intersections' in d" "False"
+run decimate "$TMP/plate.obj" "$TMP/plate_free.obj" --ratio 0.1 --algorithm qslim --allow-self-intersections --json
+expect_field "decimate --allow-self-intersections" "d['self_intersections_refused']" "False"
+if [ "$(crossings "$TMP/plate_free.obj")" -gt 0 ]; then ok; else fail "decimate --allow-self-intersections: the plate did not fold (the test below would prove nothing)"; fi
+for threads in 1 2 8; do
+    for algorithm in qslim shortest-edge; do
+        run decimate "$TMP/plate.obj" "$TMP/plate_dec.obj" --ratio 0.1 --algorithm $algorithm --threads $threads --json
+        expect_rc "decimate $algorithm $threads threads: plate" 0
+        expect_field "decimate $algorithm $threads threads: refuses crossings" "d['self_intersections_refused']" "True"
+        expect_field "decimate $algorithm $threads threads: target" "d['output_faces'] <= 1229" "True"
+        expect_value "decimate $algorithm $threads threads: no crossings" "$(crossings "$TMP/plate_dec.obj")" 0
+    done
+done
+run decimate "$TMP/plate.obj" "$TMP/plate_det1.obj" --ratio 0.1 --deterministic
+run decimate "$TMP/plate.obj" "$TMP/plate_det3.obj" --ratio 0.1 --deterministic --threads 3
+if cmp -s "$TMP/plate_det1.obj" "$TMP/plate_det3.obj"; then ok; else fail "decimate --deterministic with the invariant: 1 and 3 threads differ"; fi
+expect_value "decimate --deterministic: no crossings" "$(crossings "$TMP/plate_det3.obj")" 0
+for threads in 1 2; do
+    run remesh "$TMP/plate.obj" "$TMP/plate_rem.obj" --edge-length 0.04 --iterations 3 --threads $threads --json
+    expect_rc "remesh $threads threads: plate" 0
+    expect_field "remesh $threads threads: refuses crossings" "d['self_intersections_refused']" "True"
+    expect_value "remesh $threads threads: no crossings" "$(crossings "$TMP/plate_rem.obj")" 0
+done
+run remesh "$DATA/bunny.obj" "$TMP/bunny_free.ply" --edge-length 0.02 --iterations 1 --allow-self-intersections --json
+expect_field "remesh --allow-self-intersections" "d['self_intersections_refused']" "False"
 
 # ---- help ------------------------------------------------------------------------------------
 

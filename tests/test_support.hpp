@@ -7,6 +7,7 @@
 #include <doctest/doctest.h>
 
 #include <array>
+#include <cmath>
 #include <map>
 #include <random>
 #include <string>
@@ -69,6 +70,27 @@ Mesh subdivided_cube(int n) {
                     else
                         F.push_back({a, c, b}), F.push_back({a, d, c});
                 }
+    return Mesh(V, F);
+}
+
+/// A closed thin plate (1 x 1 x `thickness`), each side an n x n grid like
+/// subdivided_cube's, whose top and bottom inner vertices are moved up or down by up to
+/// `noise` / 2 of the thickness (a fixed hash, no generator): two nearly touching bumpy
+/// sheets, where unguarded decimation folds faces of one through the other.
+template <class Mesh>
+Mesh noisy_thin_plate(int n, double thickness, double noise) {
+    const Mesh cube = subdivided_cube<Mesh>(n);
+    auto [V, F] = cube.to_arrays();
+    for (std::size_t i = 0; i < V.size(); ++i) {
+        vec3& p = V[i];
+        const bool cap = p.z == 0 || p.z == 1;
+        const bool inner = p.x > 0 && p.x < 1 && p.y > 0 && p.y < 1;
+        const auto c = [&](double x) { return unsigned(std::lround(x * n)); };
+        unsigned h = (c(p.x) * 73856093u) ^ (c(p.y) * 19349663u) ^ (c(p.z) * 83492791u);
+        h *= 2654435761u;
+        const double bump = cap && inner ? noise * (double((h >> 8) % 1000) / 1000.0 - 0.5) : 0;
+        p.z = thickness * (p.z + bump);
+    }
     return Mesh(V, F);
 }
 

@@ -7,6 +7,7 @@
 #include <idas/core/types.hpp>
 #include <idas/invariants/link_condition.hpp>
 #include <idas/invariants/no_normal_flip.hpp>
+#include <idas/invariants/no_self_intersection.hpp>
 #include <idas/mesh/backend/corner_table_tri.hpp>
 #include <idas/mesh/backend/indexed_tri.hpp>
 #include <idas/mesh/topology_report.hpp>

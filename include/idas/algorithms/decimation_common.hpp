@@ -4,6 +4,7 @@
 #include <idas/algorithms/attribute_transfer.hpp>
 
 #include <idas/exec/executor.hpp>
+#include <idas/invariants/no_self_intersection.hpp>
 #include <idas/mesh/tri_mesh.hpp>
 
 #include <boost/container/small_vector.hpp>
@@ -168,6 +169,8 @@ struct face_target {
 struct collapse_schedule : face_target, refusal_memory {
     /// A: the file's attributes, carried through the collapses (none when null).
     const attribute_transfer* transfer = nullptr;
+    /// I: no collapse makes faces meet (disabled unless made from an index of the mesh).
+    no_self_intersection self_intersections;
 
     template <class Mesh, class Push>
     void initial(const Mesh& m, Push& push) const {

@@ -1,7 +1,7 @@
 // QSlim (Garland and Heckbert 1997): collapse the edge whose merged vertex has
 // the least quadric error, placing it where that error is smallest.
 //
-//   I  link condition (always), no normal flip
+//   I  link condition (always), no normal flip, optionally no self-intersection
 //   D  priority: quadric error of the optimal placement, least first
 //   A  per-vertex quadric (sum of area-weighted plane quadrics of its faces,
 //   plus
@@ -187,7 +187,10 @@ struct qslim_spec : collapse_schedule {
         return !transfer || transfer->collapse_after(m, r, c.carried);
     }
 
-    auto invariants() const { return invariant_set<no_normal_flip>{}; }
+    auto invariants() const {
+        return invariant_set<no_normal_flip, no_self_intersection>{no_normal_flip{},
+                                                                    self_intersections};
+    }
 };
 
 template <class Mesh = tri_mesh<>, class Lock = lock::vertex_try_lock,

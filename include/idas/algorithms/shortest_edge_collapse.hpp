@@ -1,11 +1,11 @@
 // Shortest edge collapse (the paper's first example): collapse the shortest
 // edge to its midpoint until the mesh has the target number of faces.
 //
-//   I  link condition (always), no normal flip (optional)
+//   I  link condition (always), no normal flip (optional), optionally no
+//      self-intersection
 //   D  priority: edge length, shortest first
-//   A  position of the merged vertex: the midpoint (a boundary vertex stays
-//   put) S  collapse every edge; after a success, renew the edges of the new
-//   star;
+//   A  position of the merged vertex: the midpoint (a boundary vertex stays put)
+//   S  collapse every edge; after a success, renew the edges of the new star;
 //      stop at the target face count
 #pragma once
 
@@ -56,9 +56,10 @@ struct shortest_edge_collapse_spec : collapse_schedule {
 
     auto invariants() const {
         if constexpr (NoNormalFlip)
-            return invariant_set<no_normal_flip>{};
+            return invariant_set<no_normal_flip, no_self_intersection>{no_normal_flip{},
+                                                                        self_intersections};
         else
-            return invariant_set<>{};
+            return invariant_set<no_self_intersection>{self_intersections};
     }
 };
 

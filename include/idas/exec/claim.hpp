@@ -9,6 +9,8 @@
 #include <boost/container/small_vector.hpp>
 
 #include <cstddef>
+#include <type_traits>
+#include <utility>
 
 namespace idas {
 
@@ -67,10 +69,17 @@ claim_result claim_footprint(Spec& spec, const Mesh& m, typename Mesh::tuple& t,
         if (!in_star) return claim_result::stale;
     }
     if (!m.is_valid(t)) return claim_result::stale;
+    bool held = false;
     if constexpr (detail::lock_region_hook<Spec, Mesh, Op>)
-        return spec.lock_region(Op{}, m, t, take) ? claim_result::ok : claim_result::busy;
+        held = spec.lock_region(Op{}, m, t, take);
     else
-        return closed_star_region<Op>(m, t, take) ? claim_result::ok : claim_result::busy;
+        held = closed_star_region<Op>(m, t, take);
+    // An invariant that reads beyond the star (a spatial index) claims that space too,
+    // once the star is held and its geometry cannot change.
+    using set = std::remove_cvref_t<decltype(detail::spec_invariants(spec))>;
+    if constexpr (set::claims_space)
+        held = held && detail::spec_invariants(spec).template claim<Op>(m, std::as_const(t), take);
+    return held ? claim_result::ok : claim_result::busy;
 }
 
 } // namespace idas

@@ -267,7 +267,7 @@ private:
     /// better candidate is there: afterwards each mark holds the best candidate touching it.
     void mark_regions() {
         ++rounds_;
-        const index_t n = m_.vertex_slots();
+        const std::size_t n = hooks::lock_words(spec_, m_);
         if (n > mark_size_) {
             mark_size_ = std::max<std::size_t>(n, mark_size_ * 3 / 2);
             marks_ = std::make_unique<std::atomic<std::uint64_t>[]>(mark_size_);

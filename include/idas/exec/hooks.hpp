@@ -130,6 +130,17 @@ struct hooks {
         }
     }
 
+    /// Lock words of a parallel run: one per vertex slot, then those of an invariant that
+    /// claims space beyond the operation's star (its `claim` takes word k as
+    /// vertex_slots() + k: for example the cells of a spatial index it reads and writes).
+    static std::size_t lock_words(Spec& spec, const Mesh& m) {
+        using set = std::remove_cvref_t<decltype(spec_invariants(spec))>;
+        if constexpr (set::claims_space)
+            return std::size_t(m.vertex_slots()) + spec_invariants(spec).extra_lock_words(m);
+        else
+            return m.vertex_slots();
+    }
+
     static progress counts(const Mesh& m) {
         return {static_cast<std::int64_t>(cells::live(m)),
                 static_cast<std::int64_t>(m.n_vertices()), 0};

@@ -264,7 +264,9 @@ public:
         std::uint32_t w;
         template <class Op>
         claim_result claim(Op, typename Run::tuple& t) {
-            auto mine = [&](index_t v) { return part[v] == w; };
+            // A spec's extra lock words (past the vertices) belong to no part: operations
+            // that take one wait for the claiming phase.
+            auto mine = [&](index_t v) { return v < part.size() && part[v] == w; };
             return run.template claim_footprint<Op>(t, mine);
         }
         static constexpr void release() noexcept {}

@@ -324,7 +324,8 @@ private:
             const auto [extra_vertices, extra_cells] = hooks::parallel_growth(spec_, m_);
             m_.begin_parallel(P, extra_vertices, extra_cells);
         }
-        locks_ = std::make_unique<Lock>(m_.vertex_slots()); // after growth: new vertices too
+        // After growth: new vertices too, and the spec's extra words.
+        locks_ = std::make_unique<Lock>(hooks::lock_words(spec_, m_));
         for (unsigned w = 0; w < P; ++w) {
             workers_.push_back(std::make_unique<worker>());
             workers_.back()->index = w;

@@ -7,11 +7,13 @@
 #include <idas/core/tuple.hpp>
 
 #include <concepts>
+#include <cstddef>
 #include <cstdint>
 #include <optional>
 #include <span>
 #include <tuple>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 namespace idas {
@@ -216,13 +218,59 @@ constexpr bool check_invariant() {
 }
 } // namespace detail
 
+namespace detail {
+/// An invariant that updates a structure of its own when its `after` accepts (the
+/// spatial index of no_self_intersection) must be checked last: after it nothing may
+/// refuse the operation, or the structure would describe a mesh that was rolled back.
+template <class I>
+inline constexpr bool commits_on_accept = requires {
+    requires I::commits_on_accept;
+};
+/// An invariant that reads beyond the operation's star claims that space in parallel
+/// runs: `std::size_t extra_lock_words(const Mesh&) const` lock words past the vertices,
+/// taken by `bool claim(Op, const Mesh&, const tuple&, Take&, std::size_t first_word)`.
+template <class I>
+inline constexpr bool claims_space = requires {
+    requires I::claims_space;
+};
+template <class... Is>
+constexpr bool commits_last() {
+    constexpr bool flags[] = {commits_on_accept<Is>..., false};
+    for (std::size_t i = 0; i + 1 < sizeof...(Is); ++i)
+        if (flags[i]) return false;
+    return true;
+}
+} // namespace detail
+
 /// Compile-time conjunction of invariants, checked in order; the first failure stops.
 template <class... Is>
 class invariant_set {
     static_assert((detail::check_invariant<Is>() && ...));
+    static_assert(detail::commits_last<Is...>(),
+                  "idas: an invariant that updates its own index when it accepts (such as "
+                  "no_self_intersection) must be the last of the invariant_set");
+    static_assert((int(detail::claims_space<Is>) + ... + 0) <= 1,
+                  "idas: at most one invariant of a set may claim space beyond the star");
 
 public:
     using states = std::tuple<typename Is::state...>;
+    /// Whether an invariant claims lock words past the vertices (see detail::claims_space).
+    static constexpr bool claims_space = (detail::claims_space<Is> || ...);
+
+    /// The claiming invariant's lock words past the vertices.
+    template <class Mesh>
+    std::size_t extra_lock_words(const Mesh& m) const {
+        std::size_t n = 0;
+        std::apply([&](const auto&... inv) { ((n += claimed_words(inv, m)), ...); }, invariants_);
+        return n;
+    }
+    /// The claiming invariant's claim for an operation of kind Op at t (star already held).
+    template <class Op, class Mesh, class Tuple, class Take>
+    bool claim(const Mesh& m, const Tuple& t, Take& take) const {
+        return std::apply(
+            [&](const auto&... inv) { return (claim_one<Op>(inv, m, t, take) && ...); },
+            invariants_);
+    }
 
     constexpr invariant_set() = default;
     template <class... Args>
@@ -247,6 +295,20 @@ private:
     template <class Op, class Mesh, class Result, std::size_t... k>
     bool check_after(const Mesh& m, const Result& r, states& s, std::index_sequence<k...>) const {
         return (one_after<Op>(std::get<k>(invariants_), m, r, std::get<k>(s)) && ...);
+    }
+    template <class I, class Mesh>
+    static std::size_t claimed_words(const I& inv, const Mesh& m) {
+        if constexpr (detail::claims_space<I>)
+            return inv.extra_lock_words(m);
+        else
+            return 0;
+    }
+    template <class Op, class I, class Mesh, class Tuple, class Take>
+    static bool claim_one(const I& inv, const Mesh& m, const Tuple& t, Take& take) {
+        if constexpr (detail::claims_space<I>)
+            return inv.claim(Op{}, m, t, take, std::size_t(m.vertex_slots()));
+        else
+            return true;
     }
     template <class Op, class I, class Mesh, class Tuple>
     static bool one_before(const I& inv, const Mesh& m, const Tuple& t, typename I::state& s) {

@@ -395,10 +395,10 @@ inline int orient2d(const std::array<double, 2>& a, const std::array<double, 2>&
     return dp::orient2d_exact({a[0], a[1], b[0], b[1], c[0], c[1]});
 }
 
-/// Sign of det[b - a, c - a, d - a]: +1 if the tetrahedron (a, b, c, d) is positively
-/// oriented (d on the side from which a, b, c appear counter-clockwise), -1 if negatively,
-/// 0 if coplanar. Exact for all finite inputs.
-inline int orient3d(const vec3& a, const vec3& b, const vec3& c, const vec3& d) {
+/// The sign of orient3d(a, b, c, d) where floating point alone proves it: +1 or -1, and 0
+/// when it cannot tell (the points are coplanar or nearly so). Lets a caller try a
+/// cheaper exact argument before paying for the exact fallback.
+inline int orient3d_filtered(const vec3& a, const vec3& b, const vec3& c, const vec3& d) noexcept {
     namespace dp = detail::predicates;
     const double ux = b.x - a.x, uy = b.y - a.y, uz = b.z - a.z;
     const double vx = c.x - a.x, vy = c.y - a.y, vz = c.z - a.z;
@@ -412,15 +412,19 @@ inline int orient3d(const vec3& a, const vec3& b, const vec3& c, const vec3& d) 
                         auy * (std::fabs(vzwx) + std::fabs(vxwz)) +
                         auz * (std::fabs(vxwy) + std::fabs(vywx));
     const double bound = dp::o3d_rel_bound * perm + (aux + auy + auz + 1.0) * dp::underflow_bound;
-    if (det > bound) {
+    return det > bound ? 1 : -det > bound ? -1 : 0;
+}
+
+/// Sign of det[b - a, c - a, d - a]: +1 if the tetrahedron (a, b, c, d) is positively
+/// oriented (d on the side from which a, b, c appear counter-clockwise), -1 if negatively,
+/// 0 if coplanar. Exact for all finite inputs.
+inline int orient3d(const vec3& a, const vec3& b, const vec3& c, const vec3& d) {
+    if (const int s = orient3d_filtered(a, b, c, d)) {
         IDAS_DETAIL_PRED_COUNT(orient3d_filtered);
-        return 1;
+        return s;
     }
-    if (-det > bound) {
-        IDAS_DETAIL_PRED_COUNT(orient3d_filtered);
-        return -1;
-    }
-    return dp::orient3d_exact({a.x, a.y, a.z, b.x, b.y, b.z, c.x, c.y, c.z, d.x, d.y, d.z});
+    return detail::predicates::orient3d_exact(
+        {a.x, a.y, a.z, b.x, b.y, b.z, c.x, c.y, c.z, d.x, d.y, d.z});
 }
 
 } // namespace idas
