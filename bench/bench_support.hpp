@@ -8,6 +8,8 @@
 #include <idas/core/types.hpp>
 #include <idas/io/surface.hpp>
 
+#include "../tests/shapes.hpp"
+
 #include <CGAL/Polygon_mesh_processing/distance.h>
 #include <CGAL/Simple_cartesian.h>
 #include <CGAL/Surface_mesh.h>
@@ -20,6 +22,7 @@
 #include <fstream>
 #include <limits>
 #include <stdexcept>
+#include <tuple>
 #include <unordered_map>
 #include <vector>
 
@@ -100,36 +103,11 @@ inline surface drop_unreferenced(const surface& s) {
 }
 
 /// A unit cube, each side an n x n grid of right triangles, vertices shared, outward: a
-/// CAD-like input with flat sides and sharp edges (n = 32: 12,288 faces). The same
-/// construction as tests/test_support.hpp's subdivided_cube, on face arrays.
+/// CAD-like input with flat sides and sharp edges (n = 32: 12,288 faces): the test suite's
+/// cube (tests/shapes.hpp).
 inline surface subdivided_cube(int n) {
     surface s;
-    std::unordered_map<std::uint64_t, index_t> id;
-    auto at = [&](const std::array<int, 3>& c) {
-        const std::uint64_t key =
-            (std::uint64_t(c[0]) * std::uint64_t(n + 1) + std::uint64_t(c[1])) *
-                std::uint64_t(n + 1) +
-            std::uint64_t(c[2]);
-        const auto [it, fresh] = id.try_emplace(key, static_cast<index_t>(s.vertices.size()));
-        if (fresh) s.vertices.push_back({double(c[0]) / n, double(c[1]) / n, double(c[2]) / n});
-        return it->second;
-    };
-    for (int axis = 0; axis < 3; ++axis)
-        for (int side = 0; side < 2; ++side)
-            for (int i = 0; i < n; ++i)
-                for (int j = 0; j < n; ++j) {
-                    auto p = [&](int u, int w) {
-                        std::array<int, 3> c{};
-                        c[axis] = side * n, c[(axis + 1) % 3] = u, c[(axis + 2) % 3] = w;
-                        return at(c);
-                    };
-                    const index_t a = p(i, j), b = p(i + 1, j), c = p(i + 1, j + 1),
-                                  d = p(i, j + 1);
-                    if (side == 1)
-                        s.faces.push_back({a, b, c}), s.faces.push_back({a, c, d});
-                    else
-                        s.faces.push_back({a, c, b}), s.faces.push_back({a, d, c});
-                }
+    std::tie(s.vertices, s.faces) = idas::test::subdivided_cube_arrays(n);
     return s;
 }
 

@@ -14,7 +14,7 @@
 // operations that list it while the index is in use.
 //
 // In parallel, an operation reads faces outside its star and writes grid cells. So it
-// claims space as well as vertices: every lock cell (4x4x4 grid cells) its reach overlaps,
+// claims space as well as vertices: every lock cell (a grid cell) its reach overlaps,
 // where the reach is its star's bounding box grown by half its size; its new faces must
 // stay within the reach (else it is refused, at any thread count). Whoever changes a face
 // holds the lock cells of its old and new boxes, so faces in held cells do not change
@@ -43,9 +43,14 @@
 #include <cstdint>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <type_traits>
 #include <utility>
 #include <vector>
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 namespace idas {
 
@@ -69,7 +74,7 @@ struct cell_range {
 class self_intersection_index {
 public:
     /// Grid cells per lock cell along each axis is 1 << lock_shift.
-    static constexpr int lock_shift = 1;
+    static constexpr int lock_shift = 0;
 
     /// One face in one cell: its id and its quantized bounding box.
     struct entry {
@@ -77,8 +82,9 @@ public:
         index_t face;
     };
 
-    /// Indexes every live face of m. Cells are about `cell_size` wide (default: four times
-    /// the mean edge length), coarser where 16 bits per axis cannot resolve that.
+    /// Indexes every live face of m. Cells are a power of two of quanta, between half of
+    /// `cell_size` and all of it (default: four times the mean edge length), at least one
+    /// quantum (1/65000 of the box's longest side).
     template <class Mesh>
     explicit self_intersection_index(const Mesh& m, double cell_size = 0) {
         vec3 lo{inf, inf, inf}, hi{-inf, -inf, -inf};
@@ -167,7 +173,12 @@ public:
         for (int i = 0; i < 3; ++i) e.lo[i] = below(lo[i], i), e.hi[i] = above(hi[i], i);
         return e;
     }
-    /// The cells an entry's box overlaps.
+    /// The cells an entry's box overlaps; (e, 0) the lowest only (in `lo`).
+    cell_range range_of(const entry& e, int) const noexcept {
+        cell_range r;
+        for (int i = 0; i < 3; ++i) r.lo[i] = std::int32_t(e.lo[i] >> cell_shift_);
+        return r;
+    }
     cell_range range_of(const entry& e) const noexcept {
         cell_range r;
         for (int i = 0; i < 3; ++i)
@@ -299,34 +310,54 @@ inline bool meet(const triangle& a, const triangle& b) {
 }
 
 /// The new faces' boxes, axis by axis in blocks of eight (empty boxes pad the last), so
-/// that testing one entry against all of them is a few vector compares.
+/// that testing one entry against all of them is a few vector compares (SSE2; a plain loop
+/// elsewhere).
 struct box_block {
     static constexpr std::size_t lanes = 8, max_faces = 32;
     std::size_t blocks = 0;
-    alignas(16) std::uint16_t lo[3][max_faces], hi[3][max_faces];
+    // Coordinates with the sign bit flipped: SSE2 compares 16-bit lanes as signed.
+    alignas(16) std::int16_t lo[max_faces / lanes][3][lanes], hi[max_faces / lanes][3][lanes];
+
+    static std::int16_t flipped(std::uint16_t x) noexcept { return std::int16_t(x ^ 0x8000u); }
 
     template <class Entries>
     explicit box_block(const Entries& made) noexcept {
         const std::size_t n = std::min(made.size(), max_faces);
         blocks = (n + lanes - 1) / lanes;
-        for (int i = 0; i < 3; ++i)
-            for (std::size_t k = 0; k < blocks * lanes; ++k) {
-                lo[i][k] = k < n ? made[k].lo[i] : std::uint16_t(0xffff);
-                hi[i][k] = k < n ? made[k].hi[i] : std::uint16_t(0);
-            }
+        for (std::size_t b = 0; b < blocks; ++b)
+            for (int i = 0; i < 3; ++i)
+                for (std::size_t k = 0; k < lanes; ++k) {
+                    const std::size_t at = b * lanes + k;
+                    lo[b][i][k] = flipped(at < n ? made[at].lo[i] : std::uint16_t(0xffff));
+                    hi[b][i][k] = flipped(at < n ? made[at].hi[i] : std::uint16_t(0));
+                }
     }
     /// Bit k: the entry's box overlaps new face k's (the first max_faces of them).
     std::uint32_t overlapping(const self_intersection_index::entry& g) const noexcept {
         std::uint32_t bits = 0;
         for (std::size_t b = 0; b < blocks; ++b) {
+#if defined(__SSE2__)
+            __m128i apart = _mm_setzero_si128();
+            for (int i = 0; i < 3; ++i) {
+                const __m128i glo = _mm_set1_epi16(flipped(g.lo[i]));
+                const __m128i ghi = _mm_set1_epi16(flipped(g.hi[i]));
+                const __m128i l = _mm_load_si128(reinterpret_cast<const __m128i*>(lo[b][i]));
+                const __m128i h = _mm_load_si128(reinterpret_cast<const __m128i*>(hi[b][i]));
+                apart = _mm_or_si128(
+                    apart, _mm_or_si128(_mm_cmplt_epi16(ghi, l), _mm_cmplt_epi16(h, glo)));
+            }
+            const auto block = std::uint32_t(
+                ~_mm_movemask_epi8(_mm_packs_epi16(apart, _mm_setzero_si128())) & 0xffu);
+#else
             std::uint32_t block = 0;
             for (std::size_t k = 0; k < lanes; ++k) {
-                const std::size_t at = b * lanes + k;
-                const bool apart = (g.hi[0] < lo[0][at]) | (hi[0][at] < g.lo[0]) |
-                                   (g.hi[1] < lo[1][at]) | (hi[1][at] < g.lo[1]) |
-                                   (g.hi[2] < lo[2][at]) | (hi[2][at] < g.lo[2]);
+                bool apart = false;
+                for (int i = 0; i < 3; ++i)
+                    apart =
+                        apart || flipped(g.hi[i]) < lo[b][i][k] || hi[b][i][k] < flipped(g.lo[i]);
                 block |= std::uint32_t(!apart) << k;
             }
+#endif
             bits |= block << (b * lanes);
         }
         return bits;
@@ -523,11 +554,20 @@ public:
                     beyond = overlap(made[k], g);
                 if ((near == 0 && !beyond) || is_among(made, g.face) || !m.face_alive(g.face))
                     continue;
-                const si::triangle other = si::triangle_of(m, g.face);
+                // The candidate's plane only when a new face's plane cannot part them.
+                const auto& gv = m.face_vertices(g.face);
+                const std::array<vec3, 3> gp{m.position(gv[0]), m.position(gv[1]),
+                                             m.position(gv[2])};
+                std::optional<si::triangle> other;
+                auto meets = [&](std::size_t k) {
+                    if (plane_separates(shape[k], gp, gv)) return false;
+                    if (!other) other.emplace(gp, gv);
+                    return si::meet(shape[k], *other);
+                };
                 for (; near != 0; near &= near - 1)
-                    if (si::meet(shape[std::countr_zero(near)], other)) return false;
+                    if (meets(std::size_t(std::countr_zero(near)))) return false;
                 for (std::size_t k = si::box_block::max_faces; k < n; ++k)
-                    if (overlap(made[k], g) && si::meet(shape[k], other)) return false;
+                    if (overlap(made[k], g) && meets(k)) return false;
             }
         return commit(s, made, ranges);
     }
@@ -563,9 +603,9 @@ private:
     /// The cell of g's range at the lowest corner of its overlap with `all`.
     std::array<std::int32_t, 3> first_cell(const self_intersection_index::entry& g,
                                            const cell_range& all) const noexcept {
-        const cell_range gr = index_->range_of(g);
-        return {std::max(gr.lo[0], all.lo[0]), std::max(gr.lo[1], all.lo[1]),
-                std::max(gr.lo[2], all.lo[2])};
+        const cell_range lowest = index_->range_of(g, 0);
+        return {std::max(lowest.lo[0], all.lo[0]), std::max(lowest.lo[1], all.lo[1]),
+                std::max(lowest.lo[2], all.lo[2])};
     }
 
     /// Moves the changed faces in the index: out of their old cells, into their new ones.

@@ -84,18 +84,22 @@ inline surface_summary summarize_surface(std::size_t n_vertices,
         }
     };
     using range = tbb::blocked_range<index_t>;
+    constexpr index_t serial_below = 1u << 16; // vertices
     const auto over_vertices = [&](auto&& per_vertex) {
-        return tbb::parallel_deterministic_reduce(
-            range(0, static_cast<index_t>(n_vertices), 4096), tally{},
-            [&](const range& r, tally t) {
-                for (index_t v = r.begin(); v != r.end() && t.failed_at == invalid_index; ++v)
-                    per_vertex(v, t);
-                return t;
-            },
-            [](tally a, tally b) {
-                a.join(b);
-                return a;
-            });
+        const auto block = [&](const range& r, tally t) {
+            for (index_t v = r.begin(); v != r.end() && t.failed_at == invalid_index; ++v)
+                per_vertex(v, t);
+            return t;
+        };
+        // Small meshes stay on the calling thread: tasks cost more than they save there,
+        // and ThreadSanitizer cannot see the joins of Debian's uninstrumented oneTBB.
+        const auto n = static_cast<index_t>(n_vertices);
+        if (n < serial_below) return block(range(0, n), tally{});
+        return tbb::parallel_deterministic_reduce(range(0, n, 4096), tally{}, block,
+                                                  [](tally a, tally b) {
+                                                      a.join(b);
+                                                      return a;
+                                                  });
     };
 
     tally sorted = over_vertices([&](index_t v, tally& t) {

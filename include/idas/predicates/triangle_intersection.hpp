@@ -239,6 +239,21 @@ struct face_geometry {
         , plane(corners[0], corners[1], corners[2]) {}
 };
 
+/// The corners of face (q, j) that f does not share lie strictly on one side of f's plane
+/// (floating point proves it): then the faces meet at most in what they share. The cheap
+/// first question of faces_meet, for a caller that has not built g's plane.
+inline bool plane_separates(const face_geometry& f, const std::array<vec3, 3>& q,
+                            const std::array<index_t, 3>& j) noexcept {
+    int side = 0;
+    for (int k = 0; k < 3; ++k) {
+        if (j[k] == f.v[0] || j[k] == f.v[1] || j[k] == f.v[2]) continue;
+        const int s = f.plane.side(q[k]);
+        if (s == 0 || (side != 0 && s != side)) return false;
+        side = s;
+    }
+    return side != 0;
+}
+
 /// Faces f and g meet anywhere but at the vertices they share: the test for a surface's
 /// self-intersections. Most pairs are told apart first by a plane that floating point
 /// alone puts the other's corners beyond, then by a 2D view; the exact tests decide the
