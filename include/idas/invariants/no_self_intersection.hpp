@@ -5,13 +5,13 @@
 // through each other on thin parts and flat regions (issue 16: 2 to 44 intersecting pairs
 // in 14 of 120 outputs).
 //
-// A spatial index finds the faces near the new ones: a uniform grid whose cells list the
-// faces whose bounding box they overlap, each with that box (as floats, rounded outwards,
-// so the scan reads one array). The index must describe the mesh as it is: it is built
-// from the mesh when the invariant is made, and the invariant keeps it up to date: when it
-// accepts an operation, it moves the faces the operation changed. So it must be the last
-// invariant of its set (checked at compile time), and the mesh may change only through
-// operations that list it while the index is in use.
+// A spatial index finds the faces near the new ones (self_intersection_index.hpp): a
+// uniform grid whose cells list the faces whose bounding box they overlap, each with that
+// box (quantized to 16 bits per axis, rounded outwards: the scan reads 16-byte entries). The index
+// must describe the mesh as it is: it is built from the mesh when the invariant is made, and the
+// invariant keeps it up to date: when it accepts an operation, it moves the faces the operation
+// changed. So it must be the last invariant of its set (checked at compile time), and the mesh may
+// change only through operations that list it while the index is in use.
 //
 // In parallel, an operation reads faces outside its star and writes grid cells. So it
 // claims space as well as vertices: every lock cell (a grid cell) its reach overlaps,
@@ -28,6 +28,7 @@
 #pragma once
 
 #include <idas/core/types.hpp>
+#include <idas/invariants/self_intersection_index.hpp>
 #include <idas/ops/operation.hpp>
 #include <idas/predicates/triangle_intersection.hpp>
 
@@ -53,233 +54,6 @@
 #endif
 
 namespace idas {
-
-/// An axis-aligned box of grid cells, bounds included.
-struct cell_range {
-    std::array<std::int32_t, 3> lo{}, hi{};
-    friend bool operator==(const cell_range&, const cell_range&) = default;
-    bool contains(const cell_range& o) const noexcept {
-        for (int i = 0; i < 3; ++i)
-            if (o.lo[i] < lo[i] || o.hi[i] > hi[i]) return false;
-        return true;
-    }
-};
-
-/// The faces of a triangle mesh in a uniform grid (see the top of this file).
-///
-/// Coordinates are quantized to 16 bits per axis over the mesh's box (rounded outwards;
-/// points beyond the box clamp to its sides, which keeps every overlap, as the map is
-/// monotone), and a grid cell is a whole number of quanta: so an entry is 16 bytes, its
-/// box says which cells it is in, and a scan reads four entries per cache line.
-class self_intersection_index {
-public:
-    /// Grid cells per lock cell along each axis is 1 << lock_shift.
-    static constexpr int lock_shift = 0;
-
-    /// One face in one cell: its id and its quantized bounding box.
-    struct entry {
-        std::array<std::uint16_t, 3> lo, hi;
-        index_t face;
-    };
-
-    /// Indexes every live face of m. Cells are a power of two of quanta, between half of
-    /// `cell_size` and all of it (default: four times the mean edge length), at least one
-    /// quantum (1/65000 of the box's longest side).
-    template <class Mesh>
-    explicit self_intersection_index(const Mesh& m, double cell_size = 0) {
-        vec3 lo{inf, inf, inf}, hi{-inf, -inf, -inf};
-        double edge_sum = 0;
-        std::size_t edges = 0;
-        for (index_t f = 0; f < m.face_slots(); ++f) {
-            if (!m.face_alive(f)) continue;
-            const auto& fv = m.face_vertices(f);
-            for (int k = 0; k < 3; ++k) {
-                const vec3& p = m.position(fv[k]);
-                for (int i = 0; i < 3; ++i)
-                    lo[i] = std::min(lo[i], p[i]), hi[i] = std::max(hi[i], p[i]);
-                edge_sum += norm(m.position(fv[(k + 1) % 3]) - p), ++edges;
-            }
-        }
-        if (edges == 0) lo = hi = vec3{0, 0, 0};
-        const double extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
-        quantum_ = extent > 0 && std::isfinite(extent) ? extent / 65000 : 1;
-        inv_quantum_ = 1 / quantum_;
-        origin_ = lo;
-        double h = cell_size > 0 ? cell_size : edges ? 4 * edge_sum / double(edges) : 0;
-        if (!(h > 0) || !std::isfinite(h)) h = 64 * quantum_;
-        // A power of two of quanta per cell, so a cell coordinate is a shift away.
-        while (cell_shift_ < 15 && double(2u << cell_shift_) <= h * inv_quantum_) ++cell_shift_;
-        for (int i = 0; i < 3; ++i) {
-            top_[i] = std::uint16_t(std::min(65535.0, std::ceil((hi[i] - lo[i]) * inv_quantum_)));
-            lock_dims_[i] = (std::int32_t(top_[i] >> cell_shift_) >> lock_shift) + 1;
-        }
-
-        // Every (cell, face) pair, sorted by cell: the cells' sizes, then their entries.
-        std::vector<std::pair<std::uint64_t, index_t>> pairs;
-        pairs.reserve(std::size_t(m.face_slots()) * 4);
-        for (index_t f = 0; f < m.face_slots(); ++f)
-            if (m.face_alive(f))
-                for_each_cell(range_of(entry_of(m, f)), [&](std::uint64_t key) {
-                    pairs.push_back({key, f});
-                });
-        std::sort(pairs.begin(), pairs.end());
-        std::size_t distinct = 0;
-        for (std::size_t i = 0; i < pairs.size(); ++i)
-            distinct += i == 0 || pairs[i].first != pairs[i - 1].first;
-        // Room for the cells operations will move faces into, without resizing in parallel:
-        // the table is at most half full with twice the cells it starts with.
-        capacity_ = 2 * distinct + 4096;
-        std::size_t n = 1;
-        while (n < 2 * capacity_) n *= 2;
-        mask_ = n - 1;
-        slots_ = std::make_unique<slot[]>(n);
-        for (std::size_t i = 0; i < pairs.size();) {
-            std::size_t j = i;
-            while (j < pairs.size() && pairs[j].first == pairs[i].first) ++j;
-            std::vector<entry>& c = *find_or_add(pairs[i].first); // room for all of them
-            c.reserve(j - i + 2);
-            for (; i < j; ++i) c.push_back(entry_of(m, pairs[i].second));
-        }
-    }
-
-    self_intersection_index(const self_intersection_index&) = delete;
-    self_intersection_index& operator=(const self_intersection_index&) = delete;
-
-    double cell_size() const noexcept { return double(1u << cell_shift_) * quantum_; }
-    std::size_t lock_cells() const noexcept {
-        return std::size_t(lock_dims_[0]) * lock_dims_[1] * lock_dims_[2];
-    }
-    /// Grid cells that hold (or held) faces.
-    std::size_t cells_used() const noexcept { return used_.load(std::memory_order_relaxed); }
-
-    // ---- geometry to cells ----
-
-    /// An entry for face f as it is now.
-    template <class Mesh>
-    entry entry_of(const Mesh& m, index_t f) const {
-        const auto& fv = m.face_vertices(f);
-        const vec3 &a = m.position(fv[0]), &b = m.position(fv[1]), &c = m.position(fv[2]);
-        entry e{};
-        for (int i = 0; i < 3; ++i) {
-            e.lo[i] = below(std::min({a[i], b[i], c[i]}), i);
-            e.hi[i] = above(std::max({a[i], b[i], c[i]}), i);
-        }
-        e.face = f;
-        return e;
-    }
-    /// An entry's box for a box of doubles.
-    entry box_of(const vec3& lo, const vec3& hi) const noexcept {
-        entry e{};
-        for (int i = 0; i < 3; ++i) e.lo[i] = below(lo[i], i), e.hi[i] = above(hi[i], i);
-        return e;
-    }
-    /// The cells an entry's box overlaps; (e, 0) the lowest only (in `lo`).
-    cell_range range_of(const entry& e, int) const noexcept {
-        cell_range r;
-        for (int i = 0; i < 3; ++i) r.lo[i] = std::int32_t(e.lo[i] >> cell_shift_);
-        return r;
-    }
-    cell_range range_of(const entry& e) const noexcept {
-        cell_range r;
-        for (int i = 0; i < 3; ++i)
-            r.lo[i] = std::int32_t(e.lo[i] >> cell_shift_),
-            r.hi[i] = std::int32_t(e.hi[i] >> cell_shift_);
-        return r;
-    }
-    static cell_range locks_of(const cell_range& r) noexcept {
-        cell_range l;
-        for (int i = 0; i < 3; ++i)
-            l.lo[i] = r.lo[i] >> lock_shift, l.hi[i] = r.hi[i] >> lock_shift;
-        return l;
-    }
-    std::size_t lock_word(std::int32_t x, std::int32_t y, std::int32_t z) const noexcept {
-        return std::size_t(x) + std::size_t(lock_dims_[0]) *
-                                    (std::size_t(y) + std::size_t(lock_dims_[1]) * std::size_t(z));
-    }
-
-    template <class Fn>
-    static void for_each_cell(const cell_range& r, Fn&& fn) {
-        for (std::int32_t z = r.lo[2]; z <= r.hi[2]; ++z)
-            for (std::int32_t y = r.lo[1]; y <= r.hi[1]; ++y)
-                for (std::int32_t x = r.lo[0]; x <= r.hi[0]; ++x) fn(key(x, y, z));
-    }
-    static std::uint64_t key(std::int32_t x, std::int32_t y, std::int32_t z) noexcept {
-        return std::uint64_t(x) | std::uint64_t(y) << 16 | std::uint64_t(z) << 32;
-    }
-    static std::array<std::int32_t, 3> coordinates(std::uint64_t k) noexcept {
-        return {std::int32_t(k & 0xffff), std::int32_t(k >> 16 & 0xffff), std::int32_t(k >> 32)};
-    }
-
-    // ---- cells ----
-
-    /// Starts loading the cell with key k (a scan asks for all its cells first, so that
-    /// their cache misses overlap).
-    void prefetch(std::uint64_t k) const noexcept { __builtin_prefetch(&slots_[hash(k)]); }
-
-    /// The entries of the cell with key k, or null if no face was ever there. Safe while
-    /// other threads add other cells (a cell's entries are touched only by the holder of
-    /// its lock cell).
-    const std::vector<entry>* find(std::uint64_t k) const noexcept {
-        for (std::size_t s = hash(k);; s = (s + 1) & mask_) {
-            const std::uint64_t seen = slots_[s].key.load(std::memory_order_acquire);
-            if (seen == 0) return nullptr;
-            if (seen == k + 1) return &slots_[s].entries;
-        }
-    }
-    /// The entries of cell k, made if need be; null if the table is full (the caller
-    /// refuses its operation). Lock-free: keys are claimed by compare-and-swap and never
-    /// removed.
-    std::vector<entry>* find_or_add(std::uint64_t k) noexcept {
-        for (std::size_t s = hash(k);; s = (s + 1) & mask_) {
-            std::uint64_t seen = slots_[s].key.load(std::memory_order_acquire);
-            if (seen == 0) {
-                if (used_.fetch_add(1, std::memory_order_relaxed) >= capacity_) {
-                    used_.fetch_sub(1, std::memory_order_relaxed);
-                    return nullptr;
-                }
-                if (slots_[s].key.compare_exchange_strong(seen, k + 1, std::memory_order_acq_rel))
-                    return &slots_[s].entries;
-                used_.fetch_sub(1, std::memory_order_relaxed); // another key took the slot
-            }
-            if (seen == k + 1) return &slots_[s].entries;
-        }
-    }
-
-private:
-    static constexpr double inf = std::numeric_limits<double>::infinity();
-
-    /// A cell: its key (plus one; 0 while free) beside its entries.
-    struct slot {
-        std::atomic<std::uint64_t> key{0};
-        std::vector<entry> entries;
-    };
-
-    // Quantized coordinates: monotone in x, clamped to [0, top] (NaN: the whole range).
-    // A cast truncates, which is the floor of a positive number.
-    std::uint16_t below(double x, int axis) const noexcept {
-        const double q = (x - origin_[axis]) * inv_quantum_;
-        return q > 0 ? (q < double(top_[axis]) ? std::uint16_t(q) : top_[axis]) : 0;
-    }
-    std::uint16_t above(double x, int axis) const noexcept {
-        const double q = (x - origin_[axis]) * inv_quantum_;
-        if (!(q < double(top_[axis]))) return top_[axis];
-        if (!(q > 0)) return 0;
-        const auto t = std::uint16_t(q);
-        return double(t) < q ? std::uint16_t(t + 1) : t;
-    }
-    std::size_t hash(std::uint64_t k) const noexcept {
-        return std::size_t((k * 0x9E3779B97F4A7C15ull) >> 20) & mask_;
-    }
-
-    vec3 origin_{};
-    double quantum_ = 1, inv_quantum_ = 1;
-    unsigned cell_shift_ = 0;
-    std::array<std::uint16_t, 3> top_{0, 0, 0};
-    std::array<std::int32_t, 3> lock_dims_{1, 1, 1};
-    std::unique_ptr<slot[]> slots_;
-    std::size_t mask_ = 0, capacity_ = 0;
-    std::atomic<std::size_t> used_{0};
-};
 
 namespace detail::self_intersection {
 
