@@ -157,8 +157,7 @@ TEST_CASE_TEMPLATE("no_self_intersection: shortest edge collapse keeps clean mes
     using S = shortest_edge_collapse_spec<true>;
     CHECK(decimated_intersections<A, S>(idas::test::noisy_thin_plate<Mesh>(32, 0.005, 0.9), 0.03,
                                         true) == 0);
-    CHECK(decimated_intersections<A, S>(idas::test::load<Mesh>("100071_sf.obj"), 0.01, true) ==
-          0);
+    CHECK(decimated_intersections<A, S>(idas::test::load<Mesh>("100071_sf.obj"), 0.01, true) == 0);
 }
 
 TEST_CASE("no_self_intersection: the index follows the mesh through remeshing's phases") {

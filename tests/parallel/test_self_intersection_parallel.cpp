@@ -38,9 +38,8 @@ TEST_CASE_TEMPLATE("parallel no_self_intersection: decimation on 2 and 8 threads
     const Mesh part = idas::test::load<Mesh>("100071_sf.obj");
     for (unsigned threads : {2u, 8u}) {
         CAPTURE(threads);
-        CHECK(count_self_intersections(
-                  decimated<qslim<Mesh, lock::vertex_try_lock>, qslim_spec>(plate, 0.1, threads)) ==
-              0);
+        CHECK(count_self_intersections(decimated<qslim<Mesh, lock::vertex_try_lock>, qslim_spec>(
+                  plate, 0.1, threads)) == 0);
         CHECK(count_self_intersections(
                   decimated<shortest_edge_collapse<true, Mesh, lock::vertex_try_lock>,
                             shortest_edge_collapse_spec<true>>(part, 0.01, threads)) == 0);

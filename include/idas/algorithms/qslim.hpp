@@ -189,7 +189,7 @@ struct qslim_spec : collapse_schedule {
 
     auto invariants() const {
         return invariant_set<no_normal_flip, no_self_intersection>{no_normal_flip{},
-                                                                    self_intersections};
+                                                                   self_intersections};
     }
 };
 

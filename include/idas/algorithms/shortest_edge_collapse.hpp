@@ -57,7 +57,7 @@ struct shortest_edge_collapse_spec : collapse_schedule {
     auto invariants() const {
         if constexpr (NoNormalFlip)
             return invariant_set<no_normal_flip, no_self_intersection>{no_normal_flip{},
-                                                                        self_intersections};
+                                                                       self_intersections};
         else
             return invariant_set<no_self_intersection>{self_intersections};
     }

@@ -365,8 +365,7 @@ private:
 
     static bool overlap(const self_intersection_index::entry& a,
                         const self_intersection_index::entry& b) noexcept {
-        return a.lo[0] <= b.hi[0] && b.lo[0] <= a.hi[0] && a.lo[1] <= b.hi[1] &&
-               b.lo[1] <= a.hi[1] && a.lo[2] <= b.hi[2] && b.lo[2] <= a.hi[2];
+        return self_intersection_index::overlap(a, b);
     }
     template <class Entries>
     static bool is_among(const Entries& made, index_t f) noexcept {
@@ -377,9 +376,9 @@ private:
     /// The cell of g's range at the lowest corner of its overlap with `all`.
     std::array<std::int32_t, 3> first_cell(const self_intersection_index::entry& g,
                                            const cell_range& all) const noexcept {
-        const cell_range lowest = index_->range_of(g, 0);
-        return {std::max(lowest.lo[0], all.lo[0]), std::max(lowest.lo[1], all.lo[1]),
-                std::max(lowest.lo[2], all.lo[2])};
+        const auto lowest = index_->lowest_cell(g);
+        return {std::max(lowest[0], all.lo[0]), std::max(lowest[1], all.lo[1]),
+                std::max(lowest[2], all.lo[2])};
     }
 
     /// Moves the changed faces in the index: out of their old cells, into their new ones.
@@ -434,10 +433,6 @@ std::size_t count_self_intersections(const Mesh& m) {
     namespace si = detail::self_intersection;
     const self_intersection_index index(m);
     using entry = self_intersection_index::entry;
-    auto overlap = [](const entry& a, const entry& b) {
-        return a.lo[0] <= b.hi[0] && b.lo[0] <= a.hi[0] && a.lo[1] <= b.hi[1] &&
-               b.lo[1] <= a.hi[1] && a.lo[2] <= b.hi[2] && b.lo[2] <= a.hi[2];
-    };
     std::size_t pairs = 0;
     for (index_t f = 0; f < m.face_slots(); ++f) {
         if (!m.face_alive(f)) continue;
@@ -449,7 +444,7 @@ std::size_t count_self_intersections(const Mesh& m) {
             if (!cell) return;
             const auto here = self_intersection_index::coordinates(key);
             for (const entry& g : *cell) {
-                if (g.face <= f || !overlap(e, g)) continue;
+                if (g.face <= f || !self_intersection_index::overlap(e, g)) continue;
                 const cell_range gr = index.range_of(g);
                 if (std::max(gr.lo[0], r.lo[0]) != here[0] ||
                     std::max(gr.lo[1], r.lo[1]) != here[1] ||

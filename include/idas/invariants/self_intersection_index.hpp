@@ -138,18 +138,23 @@ public:
         for (int i = 0; i < 3; ++i) e.lo[i] = below(lo[i], i), e.hi[i] = above(hi[i], i);
         return e;
     }
-    /// The cells an entry's box overlaps; (e, 0) the lowest only (in `lo`).
-    cell_range range_of(const entry& e, int) const noexcept {
-        cell_range r;
-        for (int i = 0; i < 3; ++i) r.lo[i] = std::int32_t(e.lo[i] >> cell_shift_);
-        return r;
+    /// The lowest cell an entry's box overlaps.
+    std::array<std::int32_t, 3> lowest_cell(const entry& e) const noexcept {
+        return {std::int32_t(e.lo[0] >> cell_shift_), std::int32_t(e.lo[1] >> cell_shift_),
+                std::int32_t(e.lo[2] >> cell_shift_)};
     }
+    /// The cells an entry's box overlaps.
     cell_range range_of(const entry& e) const noexcept {
         cell_range r;
         for (int i = 0; i < 3; ++i)
             r.lo[i] = std::int32_t(e.lo[i] >> cell_shift_),
             r.hi[i] = std::int32_t(e.hi[i] >> cell_shift_);
         return r;
+    }
+    /// Whether two entries' boxes overlap.
+    static bool overlap(const entry& a, const entry& b) noexcept {
+        return a.lo[0] <= b.hi[0] && b.lo[0] <= a.hi[0] && a.lo[1] <= b.hi[1] &&
+               b.lo[1] <= a.hi[1] && a.lo[2] <= b.hi[2] && b.lo[2] <= a.hi[2];
     }
     static cell_range locks_of(const cell_range& r) noexcept {
         cell_range l;
