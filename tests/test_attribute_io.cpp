@@ -128,7 +128,10 @@ TEST_CASE("attribute io: OBJ normals, colours, materials, groups, polygons, face
     write_surface(out, s);
     check_same(s, read_surface(out));
     CHECK(unstored_attributes(out, s).empty());
-    CHECK(unstored_attributes(tmp_path("attrs.off"), s).size() == 5);
+    // OFF keeps the vertex colours; corner values and named tags it cannot hold.
+    CHECK(unstored_attributes(tmp_path("attrs.off"), s) ==
+          std::vector<std::string>{"uv (corner)", "normal (corner)", "material (face)",
+                                   "group (face)"});
 }
 
 TEST_CASE("attribute io: PLY properties of every type, binary and ASCII, both byte orders") {
@@ -242,4 +245,96 @@ TEST_CASE("attribute io: writers refuse attribute columns of the wrong size") {
     CHECK_THROWS_WITH_AS(write_surface(tmp_path("short.ply"), s),
                          doctest::Contains("vertex attribute \"quality\" has 2 values"),
                          idas::input_error);
+}
+
+TEST_CASE("attribute io: OFF normals, colours, texture coordinates and face colours") {
+    // A quad and a triangle: the quad's colour goes to both of its triangles; the triangle
+    // has none (NaN). Integer colours 0..255 are bytes, fractions doubles.
+    const surface s = read_surface(scratch("stcn.off", "STCNOFF\n4 2 0\n"
+                                                       "0 0 0  0 0 1  255 0 0 255  0 0\n"
+                                                       "1 0 0  0 0 1  0 255 0 255  1 0\n"
+                                                       "1 1 0  0 0 1  0 0 255 128  1 1\n"
+                                                       "0 1 0  0 0 1  9 9 9 0      0 1\n"
+                                                       "4 0 1 2 3 0.25 0.5 0.75\n"
+                                                       "3 0 2 3\n"));
+    REQUIRE(s.faces.size() == 3);
+    const attribute_column* normal = find_attribute(s, "normal", attribute_domain::vertex);
+    const attribute_column* colour = find_attribute(s, "color", attribute_domain::vertex);
+    const attribute_column* uv = find_attribute(s, "uv", attribute_domain::vertex);
+    const attribute_column* face_colour = find_attribute(s, "color", attribute_domain::face);
+    REQUIRE(normal);
+    REQUIRE(colour);
+    REQUIRE(uv);
+    REQUIRE(face_colour);
+    CHECK(colour->width == 4);
+    CHECK(colour->type == scalar_type::uint8);
+    CHECK(colour->values[11] == 128);
+    CHECK(uv->values == std::vector<double>{0, 0, 1, 0, 1, 1, 0, 1});
+    CHECK(face_colour->type == scalar_type::float64);
+    CHECK(face_colour->values[3] == 0.25); // the quad's second triangle
+    CHECK(std::isnan(face_colour->values[6]));
+    // Written back with the same header and read again bit for bit.
+    const fs::path out = tmp_path("stcn_out.off");
+    write_surface(out, s);
+    CHECK(unstored_attributes(out, s).empty());
+    check_same(s, read_surface(out));
+    std::ifstream in(out);
+    std::string header;
+    std::getline(in, header);
+    CHECK(header == "STCNOFF");
+    // Attributes off: positions and faces only.
+    read_options plain;
+    plain.attributes = false;
+    CHECK(read_surface(out, plain).attributes.empty());
+}
+
+TEST_CASE("attribute io: OFF colours through other formats, and what OFF cannot hold") {
+    // A colour-map index per face, as Geomview's own files have.
+    const surface indexed =
+        read_surface(scratch("index.off", "OFF\n3 1\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2 7\n"));
+    const attribute_column* index = find_attribute(indexed, "color_index", attribute_domain::face);
+    REQUIRE(index);
+    CHECK(index->values == std::vector<double>{7});
+    // A coloured OFF becomes a coloured PLY (uchar red, green, blue) and comes back.
+    const surface coloured = read_surface(scratch("c.off", "COFF\n3 1\n0 0 0 10 20 30\n"
+                                                           "1 0 0 40 50 60\n0 1 0 70 80 90\n"
+                                                           "3 0 1 2\n"));
+    const fs::path ply = tmp_path("c.ply");
+    write_surface(ply, coloured);
+    CHECK(unstored_attributes(ply, coloured).empty());
+    const surface back = read_surface(ply);
+    CHECK(find_attribute(back, "red", attribute_domain::vertex)->values ==
+          std::vector<double>{10, 40, 70});
+    // Corner uv (an OBJ's seams) cannot go into OFF: the writer's caller is told.
+    surface seamed = coloured;
+    seamed.attributes.push_back(
+        {"uv", attribute_domain::corner, scalar_type::float64, 2, {0, 0, 1, 0, 0, 1}, {}});
+    CHECK(unstored_attributes(tmp_path("seams.off"), seamed) ==
+          std::vector<std::string>{"uv (corner)"});
+}
+
+TEST_CASE("attribute io: OFF lines that do not match their header are refused") {
+    const auto refused = [](std::string_view name, std::string_view text,
+                            std::vector<std::string> parts) {
+        const fs::path p = scratch(name, text);
+        try {
+            (void)read_surface(p);
+            FAIL("accepted " << name);
+        } catch (const idas::input_error& e) {
+            for (const std::string& part : parts)
+                CHECK(std::string(e.what()).find(part) != std::string::npos);
+        }
+    };
+    refused("short_colour.off", "COFF\n3 1\n0 0 0 1 1\n1 0 0 1 1\n0 1 0 1 1\n3 0 1 2\n",
+            {"vertex 0 has 5 values", "3 or 4 (colour)"});
+    refused("mixed_colour.off", "COFF\n3 1\n0 0 0 1 1 1\n1 0 0 1 1 1 1\n0 1 0 1 1 1\n3 0 1 2\n",
+            {"vertex 1", "3 (colour, as earlier vertices)"});
+    refused("no_normal.off", "NOFF\n3 1\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
+            {"vertex 0 has 3 values", "3 (normal)"});
+    refused("word_colour.off", "OFF\n3 1\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2 red\n",
+            {"face 0", "'red' is not a finite number"});
+    refused("two_values.off", "OFF\n3 1\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2 1 1\n",
+            {"face 0 has 2 values after its indices"});
+    refused("nan_colour.off", "COFF\n3 1\n0 0 0 nan 1 1\n1 0 0 1 1 1\n0 1 0 1 1 1\n3 0 1 2\n",
+            {"vertex 0", "not a finite number"});
 }

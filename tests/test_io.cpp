@@ -558,7 +558,7 @@ TEST_CASE("io: OFF headers that lie about counts") {
     check_refused(scratch("lie_huge_faces.off", "OFF\n4 4000000000 0\n" + body),
                   {"header says 4000000000 faces, found 2"});
     check_refused(scratch("lie_huge_vertices.off", "OFF\n4000000000 2 0\n" + body),
-                  {"vertex 4", "more than 3 values"});
+                  {"vertex 4", "gives a vertex 3 (position)", "header's vertex count"});
     check_refused(scratch("lie_too_big.off", "OFF\n99999999999 2 0\n" + body),
                   {"more than supported"});
     check_refused(scratch("lie_negative.off", "OFF\n-4 2 0\n" + body),

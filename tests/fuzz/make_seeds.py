@@ -40,6 +40,11 @@ def off():
     put("off", "coff.off", f"# comment\nCOFF {len(P)} 2\n"
         + "".join(f"{x} {y} {z} 255 0 0 255\n" for x, y, z in P)
         + "4 0 1 4 2 1 0 0\n3 0 1 3 # colourless\n")
+    put("off", "stcnoff.off", f"STCNOFF\n{len(P)} 3 0\n"
+        + "".join(f"{x} {y} {z} 0 0 1 0.5 0.25 1 1 {x} {y}\n" for x, y, z in P)
+        + "4 0 1 4 2 0.1 0.2 0.3\n3 0 1 3\n3 1 2 3 7 7 7\n")
+    put("off", "colour_index.off", f"NOFF {len(P)} 1\n"
+        + "".join(f"{x} {y} {z} 0 1 0\n" for x, y, z in P) + "3 0 1 2 5\n")
     put("off", "edge_with_four_triangles.off", (DATA / "edge_with_four_triangles.off").read_bytes())
     put("off", "lying_counts.off", "OFF\n99999999999 2\n0 0 0\n")
     put("off", "hour_glass_head.off",

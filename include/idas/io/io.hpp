@@ -50,7 +50,7 @@ inline surface read_surface(const std::filesystem::path& path, const read_option
 }
 
 /// The attributes of `s` that writing it to `path` would lose, as "name (domain)": the
-/// callers warn about them (OFF stores none; see each format's *_unstored_attributes).
+/// callers warn about them (see each format's *_unstored_attributes).
 inline std::vector<std::string> unstored_attributes(const std::filesystem::path& path,
                                                     const surface& s,
                                                     const format_options& options = {}) {
@@ -58,7 +58,7 @@ inline std::vector<std::string> unstored_attributes(const std::filesystem::path&
     case file_format::obj:
         return obj_unstored_attributes(s);
     case file_format::off:
-        return detail::unstored_attributes(s, [](const attribute_column&) { return false; });
+        return off_unstored_attributes(s);
     case file_format::ply:
         return ply_unstored_attributes(s);
     case file_format::stl:
