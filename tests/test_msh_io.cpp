@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <random>
 #include <sstream>
 #include <string>
@@ -72,9 +73,15 @@ void put(std::string& out, T value, bool big_endian = false) {
     out.append(reinterpret_cast<const char*>(b), sizeof(T));
 }
 
+volume volume_of(std::vector<idas::vec3> V, std::vector<idas::tet_indices> T) {
+    volume v;
+    v.vertices = std::move(V), v.tets = std::move(T);
+    return v;
+}
+
 volume cube_volume(int n = 2) {
     auto [V, T] = idas::test::cube_arrays(n, false, 0.2, 5);
-    return {V, T, 0, {}, {}};
+    return volume_of(V, T);
 }
 
 struct variant {
@@ -138,7 +145,7 @@ TEST_CASE_TEMPLATE("msh: round trips in all four variants are exact", Mesh, IDAS
         Mesh m(r.vertices, r.tets);
         auto [V, T] = m.to_arrays();
         std::stringstream s;
-        write_msh(s, volume{V, T, 0, {}, {}}, var.version, var.enc);
+        write_msh(s, volume_of(V, T), var.version, var.enc);
         const volume again = parse_msh(s.str(), "stream");
         CHECK(again.vertices == V);
         CHECK(again.tets == T);
@@ -162,10 +169,13 @@ TEST_CASE_TEMPLATE("msh: files written by Gmsh read the same in all four variant
         volume v = read_msh(test_data / name);
         CHECK(v.vertices.size() == 205);
         CHECK(v.tets.size() == 679);
-        CHECK(v.skipped_elements == 332);
+        CHECK(v.triangles.size() == 320); // the sphere's boundary
+        CHECK(v.skipped_elements == 12);
         CHECK(orient_tets_positively(v) == 0); // Gmsh's convention is idas's
         if (first.tets.empty()) first = v;
         CHECK(v.tets == first.tets);
+        CHECK(v.triangles == first.triangles);
+        CHECK(v.triangle_tags == first.triangle_tags);
         // Gmsh prints 16 significant digits, so ASCII and binary agree to rounding.
         REQUIRE(v.vertices.size() == first.vertices.size());
         for (std::size_t i = 0; i < v.vertices.size(); ++i)
@@ -183,7 +193,8 @@ TEST_CASE("msh: arbitrary node tags are mapped and other elements skipped") {
     const volume v = read_msh(msh_scratch("sparse.msh", sparse_22));
     REQUIRE(v.vertices.size() == 5);
     CHECK(v.vertices[2] == vec3{0, 1, 0});
-    CHECK(v.skipped_elements == 3);
+    CHECK(v.skipped_elements == 2);
+    CHECK(v.triangles == std::vector<idas::tri_indices>{{0, 1, 2}});
     REQUIRE(v.tets.size() == 2);
     CHECK(v.tets[0] == tet_indices{0, 1, 2, 3});
     CHECK(v.tets[1] == tet_indices{0, 2, 1, 4});
@@ -202,7 +213,8 @@ TEST_CASE("msh: arbitrary node tags are mapped and other elements skipped") {
     const volume w = read_msh(msh_scratch("sparse41.msh", text41));
     REQUIRE(w.vertices.size() == 5);
     CHECK(w.vertices[1] == vec3{1, 0, 0});
-    CHECK(w.skipped_elements == 2);
+    CHECK(w.skipped_elements == 1);
+    CHECK(w.triangles == std::vector<idas::tri_indices>{{0, 1, 2}});
     CHECK(w.tets == std::vector<tet_indices>{{0, 1, 2, 3}, {0, 2, 1, 4}});
 
     // 4.1 binary with sparse 64-bit tags, and the same file big-endian.
@@ -575,4 +587,118 @@ $EndNodeData
     msh_refused_text("nodedata_value.msh",
                      head + "$NodeData\n0\n0\n3\n0\n1\n1\n42 abc\n$EndNodeData\n",
                      {"not a number"});
+}
+
+TEST_CASE("msh: triangles, physical tags and $ElementData round trip in all four variants") {
+    volume v = cube_volume(2);
+    const std::size_t m = v.tets.size();
+    for (std::size_t t = 0; t < m; ++t) v.tags.push_back(t % 3 == 0 ? 2 : 7);
+    for (std::size_t t = 0; t < 10; ++t) {
+        v.triangles.push_back({v.tets[t][0], v.tets[t][1], v.tets[t][2]});
+        v.triangle_tags.push_back(int(5 + t % 2));
+    }
+    tet_field quality{"quality", 1, {}}, pair{"pair", 2, {}};
+    for (std::size_t t = 0; t < m; ++t) {
+        quality.values.push_back(3 + double(t) / 7);
+        pair.values.push_back(-double(t)), pair.values.push_back(1e-300 * double(t));
+    }
+    quality.values[4] = std::numeric_limits<double>::quiet_NaN(); // no value for tet 4
+    v.tet_fields = {quality, pair};
+    // 4.1 groups elements by tag: match read tets to written ones by their corners.
+    std::map<idas::tet_indices, std::size_t> written;
+    for (std::size_t t = 0; t < m; ++t) written[v.tets[t]] = t;
+    for (const auto& var : variants) {
+        INFO(std::string(var.name));
+        const fs::path p = msh_tmp(std::string("tagged_") + var.name + ".msh");
+        write_msh(p, v, var.version, var.enc);
+        const volume r = read_msh(p);
+        CHECK(r.skipped_elements == 0);
+        REQUIRE(r.tets.size() == m);
+        REQUIRE(r.tags.size() == m);
+        REQUIRE(r.tet_fields.size() == 2);
+        CHECK(r.tet_fields[0].name == "quality");
+        CHECK(r.tet_fields[1].components == 2);
+        for (std::size_t i = 0; i < m; ++i) {
+            const std::size_t t = written.at(r.tets[i]);
+            CHECK(r.tags[i] == v.tags[t]);
+            for (std::size_t f = 0; f < 2; ++f) {
+                const std::size_t c = std::size_t(v.tet_fields[f].components);
+                for (std::size_t k = 0; k < c; ++k) {
+                    const double a = v.tet_fields[f].values[t * c + k];
+                    const double b = r.tet_fields[f].values[i * c + k];
+                    if (std::isnan(a))
+                        CHECK(std::isnan(b));
+                    else
+                        CHECK(std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b));
+                }
+            }
+        }
+        std::vector<std::pair<idas::tri_indices, int>> a, b;
+        for (std::size_t t = 0; t < v.triangles.size(); ++t)
+            a.push_back({v.triangles[t], v.triangle_tags[t]});
+        REQUIRE(r.triangle_tags.size() == r.triangles.size());
+        for (std::size_t t = 0; t < r.triangles.size(); ++t)
+            b.push_back({r.triangles[t], r.triangle_tags[t]});
+        if (var.version == msh_version::v4_1)
+            std::sort(a.begin(), a.end()), std::sort(b.begin(), b.end());
+        CHECK(a == b);
+    }
+    // Writers refuse fields and triangles that do not fit the volume.
+    volume bad = v;
+    bad.tet_fields[1].values.pop_back();
+    CHECK_THROWS_WITH_AS(write_msh(msh_tmp("bad_field.msh"), bad),
+                         doctest::Contains("tet field \"pair\" has"), idas::input_error);
+    bad = v;
+    bad.triangles[3] = {0, 0, 1};
+    CHECK_THROWS_WITH_AS(write_msh(msh_tmp("bad_triangle.msh"), bad),
+                         doctest::Contains("triangle 3 is degenerate"), idas::input_error);
+    bad = v;
+    bad.triangle_tags.pop_back();
+    CHECK_THROWS_WITH_AS(write_msh(msh_tmp("bad_tags.msh"), bad),
+                         doctest::Contains("triangle tags for"), idas::input_error);
+}
+
+TEST_CASE("msh: 4.1 physical tags come from $Entities, not from the entity tags") {
+    // Volume entity 7 carries physical tag 42, surface entity 3 physical tag 9; volume
+    // entity 8 has no physical tag, so its tets' tags cannot be kept.
+    const std::string head = "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n"
+                             "$Entities\n1 0 1 2\n"
+                             "1 0 0 0 0\n"
+                             "3 0 0 0 1 1 1 1 9 0\n"
+                             "7 0 0 0 1 1 1 2 42 43 1 3\n"
+                             "8 0 0 0 1 1 1 0 0\n"
+                             "$EndEntities\n"
+                             "$Nodes\n1 5 1 5\n3 7 0 5\n1\n2\n3\n4\n5\n"
+                             "0 0 0\n1 0 0\n0 1 0\n0 0 1\n0 0 -1\n$EndNodes\n";
+    const volume v = read_msh(msh_scratch("entities41.msh", head + "$Elements\n2 3 1 3\n"
+                                                                   "3 7 4 2\n1 1 2 3 4\n2 1 3 2 5\n"
+                                                                   "2 3 2 1\n3 1 2 3\n"
+                                                                   "$EndElements\n"));
+    CHECK(v.tags == std::vector<int>{42, 42});
+    CHECK(v.triangle_tags == std::vector<int>{9});
+    const volume w = read_msh(
+        msh_scratch("entities41_untagged.msh", head + "$Elements\n2 2 1 2\n"
+                                                      "3 7 4 1\n1 1 2 3 4\n3 8 4 1\n2 1 3 2 5\n"
+                                                      "$EndElements\n"));
+    CHECK(w.tags.empty());
+    msh_refused_text("entities41_short.msh",
+                     "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Entities\n0 0 0 1\n7 0 0 0 1 1 1 "
+                     "$EndEntities\n",
+                     {"number of physical tags", "not an integer"});
+}
+
+TEST_CASE("msh: $ElementData as TetWild writes it keeps the tets' values") {
+    const std::string text = sparse_22 + "$ElementData\n1\n\"quality\"\n1\n0.0\n3\n0\n1\n3\n"
+                                         "3 2.5\n9 7.25\n4 1\n$EndElementData\n";
+    const volume v = read_msh(msh_scratch("element_data.msh", text));
+    REQUIRE(v.tets.size() == 2);
+    REQUIRE(v.tet_fields.size() == 1);
+    CHECK(v.tet_fields[0].name == "quality");
+    CHECK(v.tet_fields[0].values == std::vector<double>{2.5, 7.25}); // element 4: a triangle
+    msh_refused_text("element_data_components.msh",
+                     sparse_22 +
+                         "$ElementData\n1\n\"q\"\n1\n0.0\n3\n0\n0\n1\n3 1\n$EndElementData\n",
+                     {"$ElementData has 0 components per element"});
+    msh_refused_text("element_data_truncated.msh",
+                     sparse_22 + "$ElementData\n1\n\"q\"\n1\n0.0\n3\n0\n1\n2\n3 1\n", {"element"});
 }

@@ -94,10 +94,18 @@ inline void check_volume(const io::volume& v) {
     if (!v.tags.empty() && v.tags.size() != v.tets.size())
         finding("a reader returned " + std::to_string(v.tags.size()) + " tags for " +
                 std::to_string(v.tets.size()) + " tets");
+    check_cells(v.vertices.size(), v.triangles);
+    if (!v.triangle_tags.empty() && v.triangle_tags.size() != v.triangles.size())
+        finding("a reader returned " + std::to_string(v.triangle_tags.size()) + " tags for " +
+                std::to_string(v.triangles.size()) + " triangles");
     for (const io::vertex_field& f : v.vertex_fields)
         if (f.components < 1 || f.values.size() != v.vertices.size() * std::size_t(f.components))
             finding("vertex field \"" + f.name + "\" has " + std::to_string(f.values.size()) +
                     " values for " + std::to_string(v.vertices.size()) + " vertices");
+    for (const io::tet_field& f : v.tet_fields)
+        if (f.components < 1 || f.values.size() != v.tets.size() * std::size_t(f.components))
+            finding("tet field \"" + f.name + "\" has " + std::to_string(f.values.size()) +
+                    " values for " + std::to_string(v.tets.size()) + " tets");
 }
 
 } // namespace idas::fuzz

@@ -1,8 +1,10 @@
-// Gmsh MSH files, versions 2.2 and 4.1, ASCII and binary: tetrahedra are read, every
-// other element type is skipped (and counted). Node tags may be any non-negative
-// integers in any order; they are mapped to 0-based indices in file order. $NodeData
-// blocks (per-vertex fields: a sizing field, a solution) are read and written back; other
-// sections ($ElementData, $PhysicalNames...) are skipped.
+// Gmsh MSH files, versions 2.2 and 4.1, ASCII and binary: tetrahedra and triangles
+// (boundary and interface faces) are read with their physical tags (2.2: the first element
+// tag; 4.1: the first physical tag of the element's entity in $Entities), every other
+// element type is skipped (and counted). Node tags may be any non-negative integers in any
+// order; they are mapped to 0-based indices in file order. $NodeData blocks (per-vertex
+// fields: a sizing field, a solution) and $ElementData blocks on tets (TetWild's per-tet
+// quality) are read and written back; other sections ($PhysicalNames...) are skipped.
 //
 // Like the surface readers, every problem with a file is an input_error that starts with
 // the path ("<path>: line N: ..." for ASCII, "<path>: byte N: ..." for binary). Counts
@@ -22,6 +24,7 @@
 #include <filesystem>
 #include <limits>
 #include <ostream>
+#include <span>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -43,6 +46,7 @@ inline int msh_nodes_per_element(std::int64_t type) noexcept {
     return 0;
 }
 inline constexpr std::int64_t msh_tet4 = 4;
+inline constexpr std::int64_t msh_tri3 = 2;
 
 template <class T>
 T byte_swapped(T v) noexcept {
@@ -83,8 +87,14 @@ public:
                 v41_ ? elements_41() : elements_22();
                 expect_end("Elements");
             } else if (name == "NodeData") {
-                node_data();
+                fields_.push_back(field_block("$NodeData", "node"));
                 expect_end("NodeData");
+            } else if (name == "ElementData") {
+                element_fields_.push_back(field_block("$ElementData", "element"));
+                expect_end("ElementData");
+            } else if (name == "Entities" && v41_) {
+                entities_41();
+                expect_end("Entities");
             } else {
                 skip_section(name);
             }
@@ -232,24 +242,30 @@ private:
     }
 
     // ---- sections ----
-    /// $NodeData: string, real and integer tags (name; time; time step, components,
-    /// count), then per node its tag and its values. Binary files give the tag as a 4-byte
-    /// int in both versions, as Gmsh writes it.
-    void node_data() {
+    /// $NodeData and $ElementData: string, real and integer tags (name; time; time step,
+    /// components, count), then per node or element its tag and its values. Binary files
+    /// give the tag as a 4-byte int in both versions, as Gmsh writes it.
+    struct raw_field {
+        std::string name;
+        int components = 1;
+        std::vector<std::uint64_t> tags; // node or element tags, resolved at the end
+        std::vector<double> values;
+    };
+    raw_field field_block(const std::string& section, const std::string& item) {
         raw_field f;
         const std::uint64_t strings = count("number of string tags");
         if (strings > 64)
-            fail_here("$NodeData announces " + std::to_string(strings) + " string tags");
+            fail_here(section + " announces " + std::to_string(strings) + " string tags");
         for (std::uint64_t i = 0; i < strings; ++i) {
             std::string t = string_tag();
             if (i == 0) f.name = std::move(t);
         }
         const std::uint64_t reals = count("number of real tags");
-        if (reals > 64) fail_here("$NodeData announces " + std::to_string(reals) + " real tags");
+        if (reals > 64) fail_here(section + " announces " + std::to_string(reals) + " real tags");
         for (std::uint64_t i = 0; i < reals; ++i) real("real tag");
         const std::uint64_t ints = count("number of integer tags");
         if (ints < 3 || ints > 64)
-            fail_here("$NodeData needs 3 integer tags (time step, components, count), not " +
+            fail_here(section + " needs 3 integer tags (time step, components, count), not " +
                       std::to_string(ints));
         std::uint64_t components = 0, n = 0;
         for (std::uint64_t i = 0; i < ints; ++i) {
@@ -258,29 +274,79 @@ private:
             if (i == 2) n = x;
         }
         if (components < 1 || components > 9)
-            fail_here("$NodeData has " + std::to_string(components) +
-                      " components per node (1 to 9 are allowed)");
+            fail_here(section + " has " + std::to_string(components) + " components per " + item +
+                      " (1 to 9 are allowed)");
         f.components = int(components);
         if (binary_) {
             line_break_before_binary();
-            need(n, 4 + 8 * components, "node values");
+            need(n, 4 + 8 * components, (item + " values").c_str());
         } else {
-            need(n, 2 * (1 + components), "node values");
+            need(n, 2 * (1 + components), (item + " values").c_str());
         }
         f.tags.reserve(n), f.values.reserve(n * components);
         for (std::uint64_t i = 0; i < n; ++i) {
             if (binary_) {
-                const auto tag = bin<std::int32_t>("$NodeData");
-                if (tag < 0) fail_here("$NodeData has negative node tag " + std::to_string(tag));
+                const auto tag = bin<std::int32_t>(section.c_str());
+                if (tag < 0)
+                    fail_here(section + " has negative " + item + " tag " + std::to_string(tag));
                 f.tags.push_back(std::uint64_t(tag));
                 for (std::uint64_t k = 0; k < components; ++k)
-                    f.values.push_back(bin<double>("$NodeData"));
+                    f.values.push_back(bin<double>(section.c_str()));
             } else {
-                f.tags.push_back(count("node tag"));
+                f.tags.push_back(count((item + " tag").c_str()));
                 for (std::uint64_t k = 0; k < components; ++k) f.values.push_back(real("value"));
             }
         }
-        fields_.push_back(std::move(f));
+        return f;
+    }
+
+    /// $Entities (4.1 only): the first physical tag of every surface and volume, which the
+    /// 4.1 elements take from the entity their block belongs to. Points and curves are read
+    /// past.
+    void entities_41() {
+        std::uint64_t counts[4] = {};
+        if (binary_) line_break_before_binary();
+        for (auto& c : counts)
+            c = binary_ ? bin<std::uint64_t>("$Entities") : count("number of entities");
+        const auto number = [&](const char* what) -> std::int64_t {
+            return binary_ ? bin<std::int32_t>(what) : integer(what);
+        };
+        const auto size = [&](const char* what) -> std::uint64_t {
+            return binary_ ? bin<std::uint64_t>(what) : count(what);
+        };
+        for (int dim = 0; dim < 4; ++dim) {
+            // An entity takes at least its tag, box and two counts: 4 + 24 + 8 bytes, or 6
+            // tokens of text.
+            need(counts[dim], binary_ ? 36 : 12, "entities");
+            for (std::uint64_t i = 0; i < counts[dim]; ++i) {
+                const std::int64_t tag = number("an entity tag");
+                for (int k = 0; k < (dim == 0 ? 3 : 6); ++k)
+                    binary_ ? void(bin<double>("an entity")) : void(real("an entity's bounds"));
+                const std::uint64_t physicals = size("number of physical tags");
+                need(physicals, binary_ ? 4 : 2, "physical tags");
+                std::int64_t first = 0;
+                for (std::uint64_t j = 0; j < physicals; ++j) {
+                    const std::int64_t p = number("a physical tag");
+                    if (j == 0) first = p;
+                }
+                if (dim > 0) {
+                    const std::uint64_t bounding = size("number of bounding entities");
+                    need(bounding, binary_ ? 4 : 2, "bounding entities");
+                    for (std::uint64_t j = 0; j < bounding; ++j) number("a bounding entity tag");
+                }
+                if (dim >= 2 && physicals > 0) entity_physical_[dim - 2].push_back({tag, first});
+            }
+        }
+        for (auto& e : entity_physical_) std::sort(e.begin(), e.end());
+    }
+    /// The physical tag of a 4.1 element block's entity; 0 when it has none.
+    std::int64_t entity_physical(std::int64_t dim, std::int64_t tag) const noexcept {
+        if (dim < 2 || dim > 3) return 0;
+        const auto& e = entity_physical_[dim - 2];
+        const auto it = std::lower_bound(
+            e.begin(), e.end(),
+            std::pair<std::int64_t, std::int64_t>{tag, std::numeric_limits<std::int64_t>::min()});
+        return it != e.end() && it->first == tag ? it->second : 0;
     }
 
     void parse_format() {
@@ -417,14 +483,15 @@ private:
                       " nodes but the blocks hold " + std::to_string(read));
     }
 
-    /// `physical`: the element's physical tag (MSH 2.2's first tag), 0 if it has none.
-    void add_tet(std::uint64_t element, const std::array<std::uint64_t, 4>& nodes,
-                 std::int64_t physical = 0) {
-        if (tet_nodes_.size() >= invalid_index - 1) fail(source_, "too many tets");
-        tet_nodes_.push_back(nodes);
-        tet_elements_.push_back(element);
-        tet_physical_.push_back(physical);
+    /// A tet or a triangle (the first three nodes); `physical`: its physical tag, 0 if it
+    /// has none.
+    void add_element(std::int64_t type, std::uint64_t element,
+                     const std::array<std::uint64_t, 4>& nodes, std::int64_t physical) {
+        cells& c = type == msh_tet4 ? tets_ : triangles_;
+        if (c.nodes.size() >= invalid_index - 1) fail(source_, "too many elements");
+        c.nodes.push_back(nodes), c.elements.push_back(element), c.physical.push_back(physical);
     }
+    static bool kept(std::int64_t type) noexcept { return type == msh_tet4 || type == msh_tri3; }
 
     void elements_22() {
         const std::uint64_t m = count("number of elements");
@@ -449,7 +516,7 @@ private:
                 need(static_cast<std::uint64_t>(n), each, "elements");
                 for (std::int32_t i = 0; i < n; ++i) {
                     const auto number = bin<std::int32_t>("an element");
-                    if (type != msh_tet4) {
+                    if (!kept(type)) {
                         pos_ += each - 4;
                         ++skipped_;
                         continue;
@@ -458,14 +525,14 @@ private:
                     if (ntags > 0) physical = bin<std::int32_t>("an element");
                     pos_ += 4 * static_cast<std::size_t>(std::max(ntags - 1, 0));
                     std::array<std::uint64_t, 4> nodes{};
-                    for (auto& v : nodes) {
+                    for (int k = 0; k < nn; ++k) {
                         const auto tag = bin<std::int32_t>("an element");
                         if (tag < 0)
                             fail_here("element " + std::to_string(number) +
                                       " has negative node tag " + std::to_string(tag));
-                        v = static_cast<std::uint64_t>(tag);
+                        nodes[std::size_t(k)] = static_cast<std::uint64_t>(tag);
                     }
-                    add_tet(static_cast<std::uint64_t>(number), nodes, physical);
+                    add_element(type, static_cast<std::uint64_t>(number), nodes, physical);
                 }
                 read += static_cast<std::uint64_t>(n);
             }
@@ -487,12 +554,12 @@ private:
                                                  " values, which does not fit type " +
                                                  std::to_string(type) + " with " +
                                                  std::to_string(ntags) + " tags");
-            if (type != msh_tet4) {
+            if (!kept(type)) {
                 ++skipped_;
                 continue;
             }
-            add_tet_from(number, values, 3 + static_cast<std::size_t>(ntags),
-                         ntags > 0 ? values[3] : 0);
+            add_element_from(type, number, values, 3 + static_cast<std::size_t>(ntags),
+                             ntags > 0 ? values[3] : 0);
         }
     }
 
@@ -509,18 +576,19 @@ private:
             count("minimum element tag"), count("maximum element tag");
             if (!is_blank(rest_of_line())) fail_here("unexpected text after the $Elements header");
         }
-        tet_nodes_.reserve(capped_reserve(total, data_.size() - pos_, binary_ ? 40 : 10));
+        tets_.nodes.reserve(capped_reserve(total, data_.size() - pos_, binary_ ? 40 : 10));
         std::uint64_t read = 0;
         element_values values;
         for (std::uint64_t b = 0; b < blocks; ++b) {
-            std::int64_t type = 0;
+            std::int64_t type = 0, dim = 0, entity = 0;
             std::uint64_t n = 0;
             if (binary_) {
-                bin<std::int32_t>("an element block"), bin<std::int32_t>("an element block");
+                dim = bin<std::int32_t>("an element block");
+                entity = bin<std::int32_t>("an element block");
                 type = bin<std::int32_t>("an element block"),
                 n = bin<std::uint64_t>("an element block");
             } else {
-                integer("entity dimension"), integer("entity tag");
+                dim = integer("entity dimension"), entity = integer("entity tag");
                 type = integer("element type"), n = count("number of elements in block");
                 if (!is_blank(rest_of_line()))
                     fail_here("unexpected text after an element block header");
@@ -529,6 +597,7 @@ private:
                 fail_here("the $Elements header announces " + std::to_string(total) +
                           " elements but the blocks hold more");
             const int nn = msh_nodes_per_element(type);
+            const std::int64_t physical = entity_physical(dim, entity);
             if (binary_) {
                 if (nn == 0)
                     fail_here("element type " + std::to_string(type) +
@@ -537,14 +606,15 @@ private:
                 need(n, each, "elements");
                 for (std::uint64_t i = 0; i < n; ++i) {
                     const auto number = bin<std::uint64_t>("an element");
-                    if (type != msh_tet4) {
+                    if (!kept(type)) {
                         pos_ += each - 8;
                         ++skipped_;
                         continue;
                     }
                     std::array<std::uint64_t, 4> nodes{};
-                    for (auto& v : nodes) v = bin<std::uint64_t>("an element");
-                    add_tet(number, nodes);
+                    for (int k = 0; k < nn; ++k)
+                        nodes[std::size_t(k)] = bin<std::uint64_t>("an element");
+                    add_element(type, number, nodes, physical);
                 }
             } else {
                 for (std::uint64_t i = 0; i < n; ++i) {
@@ -555,11 +625,11 @@ private:
                                              "has " + std::to_string(values.size()) +
                                                  " values, which does not fit type " +
                                                  std::to_string(type));
-                    if (type != msh_tet4) {
+                    if (!kept(type)) {
                         ++skipped_;
                         continue;
                     }
-                    add_tet_from(values[0], values, 1);
+                    add_element_from(type, values[0], values, 1, physical);
                 }
             }
             read += n;
@@ -576,16 +646,16 @@ private:
         --pos_; // back onto the element's line for the line number
         fail_here("element " + std::to_string(number) + " " + what);
     }
-    void add_tet_from(std::int64_t number, const element_values& values, std::size_t first,
-                      std::int64_t physical = 0) {
+    void add_element_from(std::int64_t type, std::int64_t number, const element_values& values,
+                          std::size_t first, std::int64_t physical) {
         std::array<std::uint64_t, 4> nodes{};
-        for (std::size_t k = 0; k < 4; ++k) {
+        for (std::size_t k = 0; k < std::size_t(msh_nodes_per_element(type)); ++k) {
             if (values[first + k] < 0)
                 fail_line_of_element(number,
                                      "has negative node tag " + std::to_string(values[first + k]));
             nodes[k] = static_cast<std::uint64_t>(values[first + k]);
         }
-        add_tet(static_cast<std::uint64_t>(number), nodes, physical);
+        add_element(type, static_cast<std::uint64_t>(number), nodes, physical);
     }
 
     volume resolve() {
@@ -609,48 +679,80 @@ private:
                                              std::pair<std::uint64_t, index_t>{tag, 0});
             return it != sorted.end() && it->first == tag ? it->second : invalid_index;
         };
-        out.tets.reserve(tet_nodes_.size());
-        for (std::size_t t = 0; t < tet_nodes_.size(); ++t) {
-            tet_indices tv{};
-            for (int k = 0; k < 4; ++k) {
-                tv[k] = lookup(tet_nodes_[t][k]);
-                if (tv[k] == invalid_index)
-                    fail(source_, "element " + std::to_string(tet_elements_[t]) +
-                                      " references node " + std::to_string(tet_nodes_[t][k]) +
-                                      ", which is not defined");
-                for (int j = 0; j < k; ++j)
-                    if (tv[j] == tv[k])
-                        fail(source_, "element " + std::to_string(tet_elements_[t]) +
-                                          " is degenerate: it uses node " +
-                                          std::to_string(tet_nodes_[t][k]) + " twice");
+        // Corners to indices; an element naming an undefined node or one node twice is refused.
+        const auto resolve_cells = [&](const cells& c, std::size_t corners, auto& into) {
+            into.reserve(c.nodes.size());
+            for (std::size_t t = 0; t < c.nodes.size(); ++t) {
+                typename std::remove_reference_t<decltype(into)>::value_type tv{};
+                for (std::size_t k = 0; k < corners; ++k) {
+                    tv[k] = lookup(c.nodes[t][k]);
+                    if (tv[k] == invalid_index)
+                        fail(source_, "element " + std::to_string(c.elements[t]) +
+                                          " references node " + std::to_string(c.nodes[t][k]) +
+                                          ", which is not defined");
+                    for (std::size_t j = 0; j < k; ++j)
+                        if (tv[j] == tv[k])
+                            fail(source_, "element " + std::to_string(c.elements[t]) +
+                                              " is degenerate: it uses node " +
+                                              std::to_string(c.nodes[t][k]) + " twice");
+                }
+                into.push_back(tv);
             }
-            out.tets.push_back(tv);
-        }
-        for (auto& f : fields_) {
-            vertex_field field;
-            field.name = std::move(f.name);
-            field.components = f.components;
+        };
+        resolve_cells(tets_, 4, out.tets);
+        resolve_cells(triangles_, 3, out.triangles);
+        // Values per tag, spread over what the tags name; NaN for what has no value.
+        const auto spread = [&](raw_field& f, std::size_t items, auto&& index_of) {
+            field out_field;
+            out_field.name = std::move(f.name);
+            out_field.components = f.components;
             const std::size_t c = std::size_t(f.components);
-            field.values.assign(vertices_.size() * c, std::numeric_limits<double>::quiet_NaN());
+            out_field.values.assign(items * c, std::numeric_limits<double>::quiet_NaN());
             for (std::size_t i = 0; i < f.tags.size(); ++i) {
-                const index_t v = lookup(f.tags[i]);
-                if (v == invalid_index)
-                    fail(source_, "$NodeData \"" + field.name + "\" gives a value for node " +
-                                      std::to_string(f.tags[i]) + ", which is not defined");
+                const index_t v = index_of(f.tags[i]);
+                if (v == invalid_index) continue;
                 std::copy_n(f.values.begin() + std::ptrdiff_t(i * c), c,
-                            field.values.begin() + std::ptrdiff_t(std::size_t(v) * c));
+                            out_field.values.begin() + std::ptrdiff_t(std::size_t(v) * c));
             }
-            out.vertex_fields.push_back(std::move(field));
+            return out_field;
+        };
+        for (auto& f : fields_) {
+            for (std::uint64_t tag : f.tags)
+                if (lookup(tag) == invalid_index)
+                    fail(source_, "$NodeData \"" + f.name + "\" gives a value for node " +
+                                      std::to_string(tag) + ", which is not defined");
+            out.vertex_fields.push_back(spread(f, vertices_.size(), lookup));
         }
-        // Physical tags (MSH 2.2) become the tets' tags when every tet has a positive one
-        // that fits an int (what the writers store); otherwise none are kept.
-        if (!tet_physical_.empty() &&
-            std::all_of(
-                tet_physical_.begin(), tet_physical_.end(),
-                [](std::int64_t t) { return t > 0 && t <= std::numeric_limits<int>::max(); }) &&
-            std::any_of(tet_physical_.begin(), tet_physical_.end(),
-                        [](std::int64_t t) { return t != 1; }))
-            out.tags.assign(tet_physical_.begin(), tet_physical_.end());
+        // $ElementData keeps the tets' values; values for other elements (triangles, lines)
+        // are left out.
+        if (!element_fields_.empty()) {
+            std::vector<std::pair<std::uint64_t, index_t>> by_number;
+            by_number.reserve(tets_.elements.size());
+            for (std::size_t t = 0; t < tets_.elements.size(); ++t)
+                by_number.push_back({tets_.elements[t], static_cast<index_t>(t)});
+            std::sort(by_number.begin(), by_number.end());
+            const auto tet_of = [&](std::uint64_t number) -> index_t {
+                const auto it = std::lower_bound(by_number.begin(), by_number.end(),
+                                                 std::pair<std::uint64_t, index_t>{number, 0});
+                return it != by_number.end() && it->first == number ? it->second : invalid_index;
+            };
+            for (auto& f : element_fields_)
+                out.tet_fields.push_back(spread(f, out.tets.size(), tet_of));
+        }
+        // Physical tags become tags when every element has a positive one that fits an int
+        // (what the writers store) and they are not all 1; otherwise none are kept.
+        const auto tags_of = [](const std::vector<std::int64_t>& physical) {
+            const bool usable =
+                !physical.empty() &&
+                std::all_of(
+                    physical.begin(), physical.end(),
+                    [](std::int64_t t) { return t > 0 && t <= std::numeric_limits<int>::max(); }) &&
+                std::any_of(physical.begin(), physical.end(),
+                            [](std::int64_t t) { return t != 1; });
+            return usable ? std::vector<int>(physical.begin(), physical.end()) : std::vector<int>{};
+        };
+        out.tags = tags_of(tets_.physical);
+        out.triangle_tags = tags_of(triangles_.physical);
         out.vertices = std::move(vertices_);
         return out;
     }
@@ -661,17 +763,16 @@ private:
     bool have_nodes_ = false, have_elements_ = false;
     std::vector<vec3> vertices_;
     std::vector<std::pair<std::uint64_t, index_t>> tags_; // (tag, index) in file order
-    std::vector<std::array<std::uint64_t, 4>> tet_nodes_; // node tags, resolved at the end
-    std::vector<std::uint64_t> tet_elements_;             // element tags, for messages
-    std::vector<std::int64_t> tet_physical_;              // physical tags, 0 for none
-    std::size_t skipped_ = 0;
-    struct raw_field {
-        std::string name;
-        int components = 1;
-        std::vector<std::uint64_t> tags; // node tags, resolved at the end
-        std::vector<double> values;
+    struct cells {
+        std::vector<std::array<std::uint64_t, 4>> nodes; // node tags, resolved at the end
+        std::vector<std::uint64_t> elements;             // element tags
+        std::vector<std::int64_t> physical;              // physical tags, 0 for none
     };
-    std::vector<raw_field> fields_;
+    cells tets_, triangles_;
+    std::size_t skipped_ = 0;
+    std::vector<raw_field> fields_, element_fields_;
+    // (entity tag, physical tag) of 4.1 surfaces and volumes, sorted.
+    std::vector<std::pair<std::int64_t, std::int64_t>> entity_physical_[2];
 };
 
 // ---- writing ----
@@ -690,8 +791,9 @@ inline void flush_if_large(std::ostream& os, std::string& buf) {
     }
 }
 
-/// The vertices a field has values for (all finite): the others read back as NaN.
-inline std::vector<std::uint64_t> valued_vertices(const vertex_field& f) {
+/// The items (vertices or tets) a field has values for (all finite): the others read back
+/// as NaN.
+inline std::vector<std::uint64_t> valued_items(const field& f) {
     std::vector<std::uint64_t> out;
     const std::size_t c = std::size_t(f.components);
     for (std::size_t i = 0; i * c < f.values.size(); ++i)
@@ -702,27 +804,77 @@ inline std::vector<std::uint64_t> valued_vertices(const vertex_field& f) {
     return out;
 }
 
-inline std::string node_data_header(const vertex_field& f, std::size_t count) {
-    return "$NodeData\n1\n\"" + f.name + "\"\n1\n0\n3\n0\n" + std::to_string(f.components) + "\n" +
-           std::to_string(count) + "\n";
+/// "$NodeData" or "$ElementData" up to the count: one string tag (the name), one real tag
+/// (time 0), three integer tags (time step 0, components, count).
+inline std::string field_header(std::string_view section, const field& f, std::size_t count) {
+    return std::string(section) + "\n1\n\"" + f.name + "\"\n1\n0\n3\n0\n" +
+           std::to_string(f.components) + "\n" + std::to_string(count) + "\n";
 }
 
-/// The distinct tet tags, ascending ({1} when the volume has none): one MSH 4.1 volume
-/// entity, with the same physical tag, per tag.
-inline std::vector<int> distinct_tags(const volume& v) {
-    std::vector<int> t = v.tags.empty() ? std::vector<int>{1} : v.tags;
+/// The distinct tags, ascending ({1} when there are none): one MSH 4.1 entity, with the
+/// same physical tag, per tag.
+inline std::vector<int> distinct_tags(const std::vector<int>& tags) {
+    std::vector<int> t = tags.empty() ? std::vector<int>{1} : tags;
     std::sort(t.begin(), t.end());
     t.erase(std::unique(t.begin(), t.end()), t.end());
     return t;
 }
-inline int tag_of(const volume& v, std::size_t t) {
-    return v.tags.empty() ? 1 : v.tags[t];
+inline int tag_of(const std::vector<int>& tags, std::size_t i) {
+    return tags.empty() ? 1 : tags[i];
 }
+
+/// What the writer numbers and groups: tets are elements 1..m, triangles m+1..m+k.
+struct msh_layout {
+    const volume& v;
+    std::uint64_t n = v.vertices.size(), m = v.tets.size(), k = v.triangles.size();
+    std::vector<int> volumes = distinct_tags(v.tags);
+    std::vector<int> surfaces = k ? distinct_tags(v.triangle_tags) : std::vector<int>{};
+    vec3 lo{}, hi{};
+
+    explicit msh_layout(const volume& vol)
+        : v(vol) {
+        if (n) lo = hi = v.vertices[0];
+        for (const vec3& p : v.vertices)
+            for (int a = 0; a < 3; ++a)
+                lo[a] = std::min(lo[a], p[a]), hi[a] = std::max(hi[a], p[a]);
+    }
+    /// Calls visit(element number, element type, tag, corners) for every element in the
+    /// order 2.2 writes them.
+    template <class Visit>
+    void elements_in_order(Visit&& visit) const {
+        for (std::uint64_t t = 0; t < m; ++t)
+            visit(t + 1, msh_tet4, tag_of(v.tags, t), std::span<const index_t>(v.tets[t]));
+        for (std::uint64_t t = 0; t < k; ++t)
+            visit(m + 1 + t, msh_tri3, tag_of(v.triangle_tags, t),
+                  std::span<const index_t>(v.triangles[t]));
+    }
+    /// Calls block(dimension, entity, type, count) and then element(number, corners) for
+    /// each of its elements: 4.1's blocks, one per entity.
+    template <class Block, class Element>
+    void blocks(Block&& block, Element&& element) const {
+        const auto one_dimension = [&](int dim, const std::vector<int>& entities,
+                                       const std::vector<int>& tags, std::uint64_t count,
+                                       std::uint64_t first, std::int64_t type, auto corners) {
+            for (int e : entities) {
+                std::uint64_t in = 0;
+                for (std::uint64_t i = 0; i < count; ++i) in += tag_of(tags, i) == e;
+                block(dim, e, type, in);
+                for (std::uint64_t i = 0; i < count; ++i)
+                    if (tag_of(tags, i) == e) element(first + i, corners(i));
+            }
+        };
+        one_dimension(3, volumes, v.tags, m, 1, msh_tet4,
+                      [&](std::uint64_t t) { return std::span<const index_t>(v.tets[t]); });
+        one_dimension(2, surfaces, v.triangle_tags, k, m + 1, msh_tri3,
+                      [&](std::uint64_t t) { return std::span<const index_t>(v.triangles[t]); });
+    }
+};
 
 inline void write_msh_unchecked(std::ostream& os, const volume& v, msh_version version,
                                 encoding enc) {
-    const std::uint64_t n = v.vertices.size(), m = v.tets.size();
-    const std::vector<int> entities = distinct_tags(v);
+    const msh_layout l(v);
+    const std::uint64_t n = l.n, m = l.m, k = l.k;
+    const std::uint64_t blocks = l.volumes.size() + l.surfaces.size();
     if (enc == encoding::ascii) {
         text_sink out(os);
         if (version == msh_version::v2_2) {
@@ -731,59 +883,60 @@ inline void write_msh_unchecked(std::ostream& os, const volume& v, msh_version v
                 const vec3& p = v.vertices[i];
                 out << (i + 1) << ' ' << p.x << ' ' << p.y << ' ' << p.z << '\n';
             }
-            out << "$EndNodes\n$Elements\n" << m << '\n';
-            for (std::uint64_t t = 0; t < m; ++t) {
-                const auto& tv = v.tets[t];
-                const std::uint64_t tag = v.tags.empty() ? 1u : std::uint64_t(v.tags[t]);
-                out << (t + 1) << " 4 2 " << tag << ' ' << tag;
-                for (index_t x : tv) out << ' ' << std::uint64_t{x} + 1;
-                out << '\n';
-            }
+            out << "$EndNodes\n$Elements\n" << (m + k) << '\n';
+            l.elements_in_order(
+                [&](std::uint64_t number, std::int64_t type, int tag, std::span<const index_t> c) {
+                    out << number << ' ' << std::uint64_t(type) << " 2 " << std::uint64_t(tag)
+                        << ' ' << std::uint64_t(tag);
+                    for (index_t x : c) out << ' ' << std::uint64_t{x} + 1;
+                    out << '\n';
+                });
             out << "$EndElements\n";
         } else {
-            vec3 lo{}, hi{};
-            if (n) lo = hi = v.vertices[0];
-            for (const vec3& p : v.vertices)
-                for (int k = 0; k < 3; ++k)
-                    lo[k] = std::min(lo[k], p[k]), hi[k] = std::max(hi[k], p[k]);
             out << "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n";
-            // One volume entity per tag, with that tag as its physical tag.
-            out << "$Entities\n0 0 0 " << std::uint64_t(entities.size()) << '\n';
-            for (int e : entities)
-                out << std::uint64_t(e) << ' ' << lo.x << ' ' << lo.y << ' ' << lo.z << ' ' << hi.x
-                    << ' ' << hi.y << ' ' << hi.z << " 1 " << std::uint64_t(e) << " 0\n";
+            // One entity per tag, with that tag as its physical tag.
+            out << "$Entities\n0 0 " << std::uint64_t(l.surfaces.size()) << ' '
+                << std::uint64_t(l.volumes.size()) << '\n';
+            for (const auto* entities : {&l.surfaces, &l.volumes})
+                for (int e : *entities)
+                    out << std::uint64_t(e) << ' ' << l.lo.x << ' ' << l.lo.y << ' ' << l.lo.z
+                        << ' ' << l.hi.x << ' ' << l.hi.y << ' ' << l.hi.z << " 1 "
+                        << std::uint64_t(e) << " 0\n";
             out << "$EndEntities\n";
             out << "$Nodes\n1 " << n << ' ' << std::uint64_t{n ? 1u : 0u} << ' ' << n << "\n3 1 0 "
                 << n << '\n';
             for (std::uint64_t i = 0; i < n; ++i) out << (i + 1) << '\n';
             for (const vec3& p : v.vertices) out << p.x << ' ' << p.y << ' ' << p.z << '\n';
             out << "$EndNodes\n$Elements\n"
-                << std::uint64_t(entities.size()) << ' ' << m << ' ' << std::uint64_t{m ? 1u : 0u}
-                << ' ' << m << '\n';
-            for (int e : entities) {
-                std::uint64_t count = 0;
-                for (std::uint64_t t = 0; t < m; ++t) count += tag_of(v, t) == e;
-                out << "3 " << std::uint64_t(e) << " 4 " << count << '\n';
-                for (std::uint64_t t = 0; t < m; ++t) {
-                    if (tag_of(v, t) != e) continue;
-                    out << (t + 1);
-                    for (index_t x : v.tets[t]) out << ' ' << std::uint64_t{x} + 1;
+                << blocks << ' ' << (m + k) << ' ' << std::uint64_t{m + k ? 1u : 0u} << ' '
+                << (m + k) << '\n';
+            l.blocks(
+                [&](int dim, int entity, std::int64_t type, std::uint64_t count) {
+                    out << std::uint64_t(dim) << ' ' << std::uint64_t(entity) << ' '
+                        << std::uint64_t(type) << ' ' << count << '\n';
+                },
+                [&](std::uint64_t number, std::span<const index_t> c) {
+                    out << number;
+                    for (index_t x : c) out << ' ' << std::uint64_t{x} + 1;
                     out << '\n';
-                }
-            }
+                });
             out << "$EndElements\n";
         }
-        for (const auto& f : v.vertex_fields) {
-            const auto valued = valued_vertices(f);
-            out << node_data_header(f, valued.size());
-            const std::size_t c = std::size_t(f.components);
-            for (std::uint64_t i : valued) {
-                out << (i + 1);
-                for (std::size_t k = 0; k < c; ++k) out << ' ' << f.values[i * c + k];
-                out << '\n';
+        const auto fields = [&](std::string_view section, const std::vector<field>& all) {
+            for (const auto& f : all) {
+                const auto valued = valued_items(f);
+                out << field_header(section, f, valued.size());
+                const std::size_t c = std::size_t(f.components);
+                for (std::uint64_t i : valued) {
+                    out << (i + 1);
+                    for (std::size_t j = 0; j < c; ++j) out << ' ' << f.values[i * c + j];
+                    out << '\n';
+                }
+                out << "$End" << section.substr(1) << '\n';
             }
-            out << "$EndNodeData\n";
-        }
+        };
+        fields("$NodeData", v.vertex_fields);
+        fields("$ElementData", v.tet_fields);
         out.flush();
         return;
     }
@@ -799,37 +952,37 @@ inline void write_msh_unchecked(std::ostream& os, const volume& v, msh_version v
                 put_binary(buf, v.vertices[i].z);
             flush_if_large(os, buf);
         }
-        buf += "\n$EndNodes\n$Elements\n" + std::to_string(m) + "\n";
-        if (m) {
-            put_binary<std::int32_t>(buf, 4), put_binary(buf, static_cast<std::int32_t>(m));
-            put_binary<std::int32_t>(buf, 2);
-        }
-        for (std::uint64_t t = 0; t < m; ++t) {
-            put_binary(buf, static_cast<std::int32_t>(t + 1));
-            const std::int32_t tag = v.tags.empty() ? 1 : v.tags[t];
-            put_binary<std::int32_t>(buf, tag), put_binary<std::int32_t>(buf, tag);
-            for (index_t x : v.tets[t]) put_binary(buf, static_cast<std::int32_t>(x + 1));
-            flush_if_large(os, buf);
-        }
+        buf += "\n$EndNodes\n$Elements\n" + std::to_string(m + k) + "\n";
+        std::int64_t block_type = 0;
+        l.elements_in_order(
+            [&](std::uint64_t number, std::int64_t type, int tag, std::span<const index_t> c) {
+                if (type != block_type) { // a block header: type, count, number of tags
+                    block_type = type;
+                    put_binary<std::int32_t>(buf, std::int32_t(type));
+                    put_binary(buf, static_cast<std::int32_t>(type == msh_tet4 ? m : k));
+                    put_binary<std::int32_t>(buf, 2);
+                }
+                put_binary(buf, static_cast<std::int32_t>(number));
+                put_binary<std::int32_t>(buf, tag), put_binary<std::int32_t>(buf, tag);
+                for (index_t x : c) put_binary(buf, static_cast<std::int32_t>(x + 1));
+                flush_if_large(os, buf);
+            });
         buf += "\n$EndElements\n";
     } else {
         buf = "$MeshFormat\n4.1 1 8\n";
         put_binary<std::int32_t>(buf, 1);
         buf += "\n$EndMeshFormat\n$Entities\n";
-        for (std::uint64_t c :
-             {std::uint64_t{0}, std::uint64_t{0}, std::uint64_t{0}, std::uint64_t(entities.size())})
+        for (std::uint64_t c : {std::uint64_t{0}, std::uint64_t{0},
+                                std::uint64_t(l.surfaces.size()), std::uint64_t(l.volumes.size())})
             put_binary(buf, c);
-        vec3 lo{}, hi{};
-        if (n) lo = hi = v.vertices[0];
-        for (const vec3& p : v.vertices)
-            for (int k = 0; k < 3; ++k)
-                lo[k] = std::min(lo[k], p[k]), hi[k] = std::max(hi[k], p[k]);
-        for (int e : entities) {
-            put_binary<std::int32_t>(buf, e);
-            for (double x : {lo.x, lo.y, lo.z, hi.x, hi.y, hi.z}) put_binary(buf, x);
-            put_binary<std::uint64_t>(buf, 1), put_binary<std::int32_t>(buf, e);
-            put_binary<std::uint64_t>(buf, 0);
-        }
+        for (const auto* entities : {&l.surfaces, &l.volumes})
+            for (int e : *entities) {
+                put_binary<std::int32_t>(buf, e);
+                for (double x : {l.lo.x, l.lo.y, l.lo.z, l.hi.x, l.hi.y, l.hi.z})
+                    put_binary(buf, x);
+                put_binary<std::uint64_t>(buf, 1), put_binary<std::int32_t>(buf, e);
+                put_binary<std::uint64_t>(buf, 0);
+            }
         buf += "\n$EndEntities\n$Nodes\n";
         for (std::uint64_t c : {std::uint64_t{1}, n, std::uint64_t{n ? 1u : 0u}, n})
             put_binary(buf, c);
@@ -845,34 +998,36 @@ inline void write_msh_unchecked(std::ostream& os, const volume& v, msh_version v
             flush_if_large(os, buf);
         }
         buf += "\n$EndNodes\n$Elements\n";
-        for (std::uint64_t c : {std::uint64_t(entities.size()), m, std::uint64_t{m ? 1u : 0u}, m})
+        for (std::uint64_t c : {blocks, m + k, std::uint64_t{m + k ? 1u : 0u}, m + k})
             put_binary(buf, c);
-        for (int e : entities) {
-            std::uint64_t count = 0;
-            for (std::uint64_t t = 0; t < m; ++t) count += tag_of(v, t) == e;
-            put_binary<std::int32_t>(buf, 3), put_binary<std::int32_t>(buf, e),
-                put_binary<std::int32_t>(buf, 4);
-            put_binary(buf, count);
-            for (std::uint64_t t = 0; t < m; ++t) {
-                if (tag_of(v, t) != e) continue;
-                put_binary(buf, t + 1);
-                for (index_t x : v.tets[t]) put_binary(buf, std::uint64_t{x} + 1);
+        l.blocks(
+            [&](int dim, int entity, std::int64_t type, std::uint64_t count) {
+                put_binary<std::int32_t>(buf, dim), put_binary<std::int32_t>(buf, entity),
+                    put_binary<std::int32_t>(buf, std::int32_t(type));
+                put_binary(buf, count);
+            },
+            [&](std::uint64_t number, std::span<const index_t> c) {
+                put_binary(buf, number);
+                for (index_t x : c) put_binary(buf, std::uint64_t{x} + 1);
                 flush_if_large(os, buf);
-            }
-        }
+            });
         buf += "\n$EndElements\n";
     }
-    for (const auto& f : v.vertex_fields) {
-        const auto valued = valued_vertices(f);
-        buf += node_data_header(f, valued.size());
-        const std::size_t c = std::size_t(f.components);
-        for (std::uint64_t i : valued) {
-            put_binary(buf, static_cast<std::int32_t>(i + 1));
-            for (std::size_t k = 0; k < c; ++k) put_binary(buf, f.values[i * c + k]);
-            flush_if_large(os, buf);
+    const auto fields = [&](std::string_view section, const std::vector<field>& all) {
+        for (const auto& f : all) {
+            const auto valued = valued_items(f);
+            buf += field_header(section, f, valued.size());
+            const std::size_t c = std::size_t(f.components);
+            for (std::uint64_t i : valued) {
+                put_binary(buf, static_cast<std::int32_t>(i + 1));
+                for (std::size_t j = 0; j < c; ++j) put_binary(buf, f.values[i * c + j]);
+                flush_if_large(os, buf);
+            }
+            buf += "\n$End" + std::string(section.substr(1)) + "\n";
         }
-        buf += "\n$EndNodeData\n";
-    }
+    };
+    fields("$NodeData", v.vertex_fields);
+    fields("$ElementData", v.tet_fields);
     os.write(buf.data(), static_cast<std::streamsize>(buf.size()));
 }
 
@@ -887,8 +1042,10 @@ inline volume read_msh(const std::filesystem::path& path) {
     return parse_msh(detail::read_file(path), path.string());
 }
 
-/// Writes tets (element type 4) with node tags 1..n and element tags 1..m. Binary files
-/// use this machine's byte order (the format's marker records it).
+/// Writes tets (element type 4) with node tags 1..n and element tags 1..m, then the
+/// triangles (type 2) as elements m+1..m+k, each with its physical tag (4.1: one entity
+/// per tag), then the vertex and tet fields. Binary files use this machine's byte order
+/// (the format's marker records it).
 inline void write_msh(std::ostream& os, const volume& v, msh_version version = msh_version::v4_1,
                       encoding enc = encoding::binary) {
     detail::check_writable(v, "MSH output");

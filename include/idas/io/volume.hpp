@@ -12,13 +12,15 @@
 
 namespace idas::io {
 
-/// Values given per vertex (MSH $NodeData): `components` doubles per vertex, vertex after
-/// vertex; NaN where the file gives no value for a vertex.
-struct vertex_field {
+/// Values given per vertex (MSH $NodeData) or per tet (MSH $ElementData): `components`
+/// doubles per item, item after item; NaN where the file gives no value for an item.
+struct field {
     std::string name;
     int components = 1;
     std::vector<double> values;
 };
+using vertex_field = field;
+using tet_field = field;
 
 /// Tets as stored in a file: positions and 0-based corner indices. Readers guarantee
 /// every index is in range and no tet repeats a vertex; they do not check orientation
@@ -26,14 +28,21 @@ struct vertex_field {
 struct volume {
     std::vector<vec3> vertices;
     std::vector<tet_indices> tets;
-    /// Elements of other types (points, lines, triangles, higher-order cells...) that
-    /// the reader skipped.
+    /// Elements of other types (points, lines, quads, higher-order cells...) that the
+    /// reader skipped.
     std::size_t skipped_elements = 0;
-    /// Per tet, a tag the writers store as the element's physical (and elementary) tag in
-    /// MSH 2.2; empty means tag 1 for every tet.
+    /// Per tet, its physical tag (MSH 2.2's first element tag, MSH 4.1's volume entity's
+    /// first physical tag); the writers store it as the physical and elementary tag. Empty
+    /// means tag 1 for every tet.
     std::vector<int> tags;
+    /// Triangles stored with the tets (boundary and interface faces: MSH element type 2),
+    /// and their physical tags, read and written like the tets'.
+    std::vector<tri_indices> triangles;
+    std::vector<int> triangle_tags;
     /// Per-vertex fields (MSH $NodeData, read and written; VTU point data).
     std::vector<vertex_field> vertex_fields;
+    /// Per-tet fields (MSH $ElementData, read and written: TetWild's per-tet quality).
+    std::vector<tet_field> tet_fields;
 };
 
 /// Swaps two corners of every negatively oriented tet (exact orient3d), for files
@@ -73,16 +82,39 @@ inline void check_writable(const volume& v, std::string_view target) {
                          std::to_string(v.tets.size()) + " tets");
     for (int tag : v.tags)
         if (tag <= 0) fail(target, "tet tags must be positive (MSH physical tags)");
-    for (const auto& f : v.vertex_fields) {
-        if (f.components < 1 || f.components > 9)
-            fail(target, "vertex field \"" + f.name + "\" has " + std::to_string(f.components) +
-                             " components (1 to 9 can be written)");
-        if (f.values.size() != v.vertices.size() * std::size_t(f.components))
-            fail(target, "vertex field \"" + f.name + "\" has " + std::to_string(f.values.size()) +
-                             " values for " + std::to_string(v.vertices.size()) + " vertices");
-        if (f.name.find_first_of("\"\n\r") != std::string::npos)
-            fail(target, "a vertex field's name holds a quote or a line break");
+    for (std::size_t t = 0; t < v.triangles.size(); ++t) {
+        const tri_indices& tv = v.triangles[t];
+        for (index_t x : tv)
+            if (x >= v.vertices.size())
+                fail(target, "triangle " + std::to_string(t) + " references vertex " +
+                                 std::to_string(x) + " but there are only " +
+                                 std::to_string(v.vertices.size()) + " vertices");
+        if (tv[0] == tv[1] || tv[1] == tv[2] || tv[0] == tv[2])
+            fail(target, "triangle " + std::to_string(t) + " is degenerate (repeats a vertex)");
     }
+    if (!v.triangle_tags.empty() && v.triangle_tags.size() != v.triangles.size())
+        fail(target, "there are " + std::to_string(v.triangle_tags.size()) + " triangle tags for " +
+                         std::to_string(v.triangles.size()) + " triangles");
+    for (int tag : v.triangle_tags)
+        if (tag <= 0) fail(target, "triangle tags must be positive (MSH physical tags)");
+    const auto check_fields = [&](const std::vector<field>& fields, std::size_t items,
+                                  const char* what, const char* plural) {
+        for (const auto& f : fields) {
+            if (f.components < 1 || f.components > 9)
+                fail(target, std::string(what) + " field \"" + f.name + "\" has " +
+                                 std::to_string(f.components) +
+                                 " components (1 to 9 can be written)");
+            if (f.values.size() != items * std::size_t(f.components))
+                fail(target, std::string(what) + " field \"" + f.name + "\" has " +
+                                 std::to_string(f.values.size()) + " values for " +
+                                 std::to_string(items) + " " + plural);
+            if (f.name.find_first_of("\"\n\r") != std::string::npos)
+                fail(target,
+                     std::string("a ") + what + " field's name holds a quote or a line break");
+        }
+    };
+    check_fields(v.vertex_fields, v.vertices.size(), "vertex", "vertices");
+    check_fields(v.tet_fields, v.tets.size(), "tet", "tets");
 }
 
 } // namespace detail
