@@ -338,3 +338,27 @@ TEST_CASE("attribute io: OFF lines that do not match their header are refused") 
     refused("nan_colour.off", "COFF\n3 1\n0 0 0 nan 1 1\n1 0 0 1 1 1\n0 1 0 1 1 1\n3 0 1 2\n",
             {"vertex 0", "not a finite number"});
 }
+
+TEST_CASE("attribute io: PLY lists and elements the reader cannot keep are named") {
+    const fs::path p =
+        scratch("lists.ply", "ply\nformat ascii 1.0\n"
+                             "element vertex 3\nproperty float x\nproperty float y\n"
+                             "property float z\nproperty list uchar int neighbours\n"
+                             "element face 1\nproperty list uchar int vertex_indices\n"
+                             "property list uchar float texcoord\n"
+                             "property list uchar uchar flags\n"
+                             "element edge 1\nproperty int vertex1\nproperty int vertex2\n"
+                             "end_header\n"
+                             "0 0 0 2 1 2\n1 0 0 0\n0 1 0 1 0\n"
+                             "3 0 1 2 6 0 0 1 0 0 1 2 7 7\n"
+                             "0 1\n");
+    const surface s = read_surface(p);
+    CHECK(s.faces.size() == 1);
+    CHECK(find_attribute(s, "texcoord", attribute_domain::corner) != nullptr);
+    CHECK(s.skipped == std::vector<std::string>{"neighbours (vertex list property)",
+                                                "flags (face list property)",
+                                                "edge (PLY element of 1 item)"});
+    read_options plain;
+    plain.attributes = false;
+    CHECK(read_surface(p, plain).skipped.empty());
+}

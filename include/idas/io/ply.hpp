@@ -3,8 +3,9 @@
 // "vertex_index") list from the "face" element. Every other scalar property of those two
 // elements (normals, colours, quality, custom) becomes a vertex or face attribute of the
 // same name and type, and a face's "texcoord" list (u v per corner, as MeshLab writes it)
-// the corner attribute "texcoord"; other lists and elements are skipped. The writer emits
-// double coordinates, int32 indices and the attributes with their types.
+// the corner attribute "texcoord"; other lists and elements are skipped and named in
+// surface::skipped. The writer emits double coordinates, int32 indices and the attributes
+// with their types.
 #pragma once
 
 #include "idas/io/atomic_file.hpp"
@@ -285,6 +286,9 @@ private:
                     fail(source_, "the face vertex_indices list does not have an integer type");
                 roles[static_cast<std::size_t>(it - e.properties.begin())] = ply_role::corners;
                 add_attribute_roles(e, roles, columns_.back(), attribute_domain::face);
+            } else if (options_.attributes) {
+                surface_.skipped.push_back(e.name + " (PLY element of " + std::to_string(e.count) +
+                                           (e.count == 1 ? " item)" : " items)"));
             }
         }
     }
@@ -317,6 +321,8 @@ private:
                                                2,
                                                {},
                                                {}});
+            } else {
+                surface_.skipped.push_back(p.name + " (" + e.name + " list property)");
             }
         }
     }

@@ -72,6 +72,9 @@ struct surface {
     std::vector<attribute_column> attributes;
     /// Lines a writer of the same format repeats verbatim (OBJ `mtllib`).
     std::vector<std::string> header_lines;
+    /// What the reader read past without keeping it, as "name (what)": PLY list properties
+    /// other than texcoord and PLY elements other than vertex and face. Callers warn.
+    std::vector<std::string> skipped;
     /// Faces the reader left out: STL facets whose corners weld into fewer than three
     /// vertices (STL stores positions only, so such a facet cannot be told apart from a
     /// degenerate one). Other readers refuse degenerate faces instead.
