@@ -89,6 +89,9 @@ class deterministic_engine {
 
     struct shard {
         queue_type q;
+        // Entries taken out of q in earlier rounds that did not run, in pop order: they are
+        // merged with q's pops instead of going back into it (a push and a pop each).
+        std::vector<entry> front, next_front;
         std::vector<entry> popped;     // this round's pops, best first
         std::vector<entry> reanchored; // vertex entries moved to a current tuple
         std::size_t taken = 0;         // how many of them became candidates
@@ -180,18 +183,23 @@ private:
 
     // ------------------------------------------------------------- rounds ----
 
-    /// Every shard takes back what waited and what the last round pushed, then pops its
-    /// best current entries; the round's candidates are the best `round_size` of all of
-    /// them that no unpopped entry beats. Returns how many there are.
+    /// Every shard takes back what waited (into its front) and what the last round pushed
+    /// (into its queue), then takes its best current entries; the round's candidates are
+    /// the best `round_size` of all of them that no unpopped entry beats. Returns how many
+    /// there are.
     std::size_t fill_and_select() {
         const std::size_t B = round_size();
         const std::size_t per_shard = (3 * B / 2 + K - 1) / K;
         each_shard([&](unsigned s, unsigned) {
             shard& sh = shards_[s];
+            // What waited, what was popped but not taken and the old front stay in pop order.
+            sh.next_front.clear();
             for (std::size_t i = sh.first; i < sh.first + sh.taken; ++i)
-                if (fate_[i] != fate::ran) sh.q.push(cand_[i]), ++sh.report.pushed;
-            for (std::size_t i = sh.taken; i < sh.popped.size(); ++i)
-                sh.q.push(sh.popped[i]), ++sh.report.pushed;
+                if (fate_[i] != fate::ran) sh.next_front.push_back(cand_[i]);
+            sh.next_front.insert(sh.next_front.end(), sh.popped.begin() + std::ptrdiff_t(sh.taken),
+                                 sh.popped.end());
+            sh.next_front.insert(sh.next_front.end(), sh.front.begin(), sh.front.end());
+            std::swap(sh.front, sh.next_front);
             for (auto& t : threads_) {
                 auto& out = t->out[s];
                 for (const entry& e : out) sh.q.push(e);
@@ -201,8 +209,20 @@ private:
             }
             purge_if_bloated(sh);
             sh.popped.clear();
-            entry e;
-            while (sh.popped.size() < per_shard && sh.q.pop(e)) {
+            // The queue's pops merged with the front: the same sequence as if the front had
+            // gone back into the queue. `next` holds the queue's best, popped ahead.
+            entry next, e;
+            bool queued = sh.q.pop(next);
+            std::size_t f = 0;
+            while (sh.popped.size() < per_shard) {
+                if (f < sh.front.size() && (!queued || !pops_before(next, sh.front[f]))) {
+                    e = sh.front[f++];
+                } else if (queued) {
+                    e = next;
+                    queued = sh.q.pop(next);
+                } else {
+                    break;
+                }
                 ++sh.report.popped;
                 if (!m_.is_valid(e.tuple)) {
                     // A vertex entry follows its vertex into a current tuple; that changes
@@ -225,6 +245,8 @@ private:
                 }
                 sh.popped.push_back(e);
             }
+            if (queued) sh.q.push(next); // popped ahead, not taken
+            sh.front.erase(sh.front.begin(), sh.front.begin() + std::ptrdiff_t(f));
             for (const entry& x : sh.reanchored) sh.q.push(x); // after the pops, not among them
             sh.report.pushed += sh.reanchored.size();
             sh.reanchored.clear();
