@@ -29,6 +29,7 @@
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <numbers>
 #include <string>
 #include <vector>
@@ -141,6 +142,62 @@ public:
         std::size_t n = 0;
         m.for_each_vertex([&](const typename Mesh::tuple& t) { n += constrained(m, t.vid); });
         return n;
+    }
+
+    /// Components carried per vertex: the vertex components, then the corner ones (the
+    /// order of value() and component_ranges()).
+    std::size_t components() const noexcept { return vertex_.size() + corner_.size(); }
+
+    /// Component k of vertex v as face f sees it: its corner value in f for a corner
+    /// attribute (one chart's value on a seam).
+    template <class Mesh>
+    double value(const Mesh& m, index_t f, index_t v, std::size_t k) const {
+        if (k < vertex_.size()) return m.attribute(vertex_[k])[v];
+        return m.attribute(corner_[k - vertex_.size()])[f][slot_of(m, f, v)];
+    }
+
+    /// Component k at face f's three corners, in the order of its vertices.
+    template <class Mesh>
+    std::array<double, 3> face_values(const Mesh& m, index_t f, std::size_t k) const {
+        if (k >= vertex_.size()) return m.attribute(corner_[k - vertex_.size()])[f];
+        const auto col = m.attribute(vertex_[k]);
+        const auto& fv = m.face_vertices(f);
+        return {col[fv[0]], col[fv[1]], col[fv[2]]};
+    }
+
+    /// The name of the attribute component k belongs to ("uv", "normal", "color", ...).
+    const std::string& component_attribute(std::size_t k) const {
+        for (const group& g : groups_) {
+            if (g.meta.domain == io::attribute_domain::face) continue;
+            const std::size_t first = first_component(g);
+            if (k >= first && k < first + g.meta.width) return g.meta.name;
+        }
+        throw std::out_of_range("attribute_transfer: no component " + std::to_string(k));
+    }
+
+    /// Per component, the range (largest minus smallest value over the live elements) of
+    /// the attribute it belongs to, the largest of its components' ranges: one scale for
+    /// all of uv or a colour keeps distances in that space undistorted.
+    template <class Mesh>
+    std::vector<double> component_ranges(const Mesh& m) const {
+        const std::size_t n = components();
+        std::vector<double> lo(n, std::numeric_limits<double>::infinity()),
+            hi(n, -std::numeric_limits<double>::infinity());
+        m.for_each_face([&](const typename Mesh::tuple& t) {
+            for (std::size_t k = 0; k < n; ++k)
+                for (const double x : face_values(m, t.fid, k))
+                    lo[k] = std::min(lo[k], x), hi[k] = std::max(hi[k], x);
+        });
+        std::vector<double> range(n, 0.0);
+        for (const group& g : groups_) {
+            if (g.meta.domain == io::attribute_domain::face) continue;
+            const std::size_t first = first_component(g);
+            double r = 0;
+            for (std::size_t k = first; k < first + g.meta.width; ++k)
+                if (hi[k] > lo[k]) r = std::max(r, hi[k] - lo[k]);
+            for (std::size_t k = first; k < first + g.meta.width; ++k) range[k] = r;
+        }
+        return range;
     }
 
     /// The attributes of the mesh's live elements, in the order of Mesh::to_arrays().
@@ -368,6 +425,11 @@ private:
         io::attribute_column meta; // name, domain, type, width, labels
         std::size_t first = 0;     // its first component's column
     };
+
+    /// The component (vertex components first, then corner ones) of a group's first column.
+    std::size_t first_component(const group& g) const noexcept {
+        return g.first + (g.meta.domain == io::attribute_domain::vertex ? 0 : vertex_.size());
+    }
 
     template <class Mesh>
     static index_t slot_of(const Mesh& m, index_t f, index_t v) {
