@@ -1,6 +1,7 @@
 // `idas tetmesh`: tetrahedral meshing of a triangle soup: exact insertion with inside and
-// outside (part 1), then the quality optimization (part 2). Included by idas_cli.cpp inside
-// its anonymous namespace, after the helpers it uses.
+// outside (part 1), then the quality optimization (part 2; the options, their checks and
+// the full run are tool/tetmesh.hpp, shared with the Python module). Included by
+// idas_cli.cpp inside its anonymous namespace, after the helpers it uses.
 //
 //   idas tetmesh IN OUT.msh|OUT.vtu [--epsilon E] [--edge-length L] [--absolute]
 //                [--sizing VALUE|FILE.msh] [--stop-energy 10] [--max-iterations 80]
@@ -16,12 +17,9 @@
 #pragma once
 
 struct tetmesh_arguments {
-    std::string in, out, stage = "optimize", sizing, boundary, msh_version = "2.2";
-    double epsilon = 1e-3, edge_length = 1.0 / 20.0, stop_energy = 10;
-    unsigned max_iterations = 80;
-    bool absolute = false, as_json = false, ascii = false, keep_outside = false;
-    bool no_simplify = false;
-    unsigned threads = 1;
+    std::string in, out, boundary, msh_version = "2.2";
+    tetmesh_options options;
+    bool as_json = false, ascii = false;
 };
 
 CLI::App* add_tetmesh_command(CLI::App& app, tetmesh_arguments& a,
@@ -35,17 +33,17 @@ CLI::App* add_tetmesh_command(CLI::App& app, tetmesh_arguments& a,
                   "output tet mesh: .msh (physical tag 1 inside, 2 outside) or .vtu (cell "
                   "fields region, the same tags, and amips)")
         ->required();
-    c->add_option("--epsilon", a.epsilon,
+    c->add_option("--epsilon", a.options.epsilon,
                   "envelope half-width, relative to the bounding-box diagonal (used by the "
                   "optimization stage; insertion is exact)")
         ->capture_default_str();
-    c->add_option("--edge-length", a.edge_length,
+    c->add_option("--edge-length", a.options.edge_length,
                   "target edge length, relative to the diagonal (spacing of the background "
                   "box points)")
         ->capture_default_str();
-    c->add_flag("--absolute", a.absolute,
+    c->add_flag("--absolute", a.options.absolute,
                 "--epsilon, --edge-length and a constant --sizing are absolute lengths");
-    c->add_option("--sizing", a.sizing,
+    c->add_option("--sizing", a.options.sizing,
                   "target edge length field of the optimization: a constant (relative to the "
                   "diagonal unless --absolute), or a .msh tet mesh whose first scalar "
                   "$NodeData gives an absolute length per node, interpolated linearly (points "
@@ -55,23 +53,23 @@ CLI::App* add_tetmesh_command(CLI::App& app, tetmesh_arguments& a,
     c->add_option("--msh-version", a.msh_version, "MSH version of .msh output")
         ->check(CLI::IsMember({"2.2", "4.1"}))
         ->capture_default_str();
-    c->add_option("--stop-energy", a.stop_energy,
+    c->add_option("--stop-energy", a.options.stop_energy,
                   "stop optimizing when the largest AMIPS energy is at most this (>= 3)")
         ->capture_default_str();
-    c->add_option("--max-iterations", a.max_iterations,
+    c->add_option("--max-iterations", a.options.max_iterations,
                   "at most this many rounds of split, collapse, swap and smooth")
         ->check(unsigned_check)
         ->capture_default_str();
-    c->add_flag("--keep-outside", a.keep_outside,
+    c->add_flag("--keep-outside", a.options.keep_outside,
                 "write every tet (tag 1 inside, 2 outside), not only the inside");
-    c->add_flag("--no-simplify", a.no_simplify,
+    c->add_flag("--no-simplify", a.options.no_simplify,
                 "insert every input triangle as it is (by default the full run first collapses "
                 "the input's short edges inside an envelope of 0.8 epsilon, as fTetWild)");
-    c->add_option("--stage", a.stage,
+    c->add_option("--stage", a.options.stage,
                   "last stage to run (insertion: part 1, every tet written unoptimized)")
         ->check(CLI::IsMember({"insertion", "optimize"}))
         ->capture_default_str();
-    c->add_option("--threads", a.threads, "worker threads")
+    c->add_option("--threads", a.options.threads, "worker threads")
         ->check(unsigned_check)
         ->capture_default_str();
     c->add_flag("--json", a.as_json, "print one JSON object instead of text");
@@ -80,16 +78,6 @@ CLI::App* add_tetmesh_command(CLI::App& app, tetmesh_arguments& a,
 }
 
 #if IDAS_CLI_HAVE_CGAL
-/// The insertion's guarantee, checked: a failure is a bug in idas, not in the input
-/// (exit 1).
-void check_insertion_guarantee(const idas::tetmesh::report& r) {
-    if (r.covered_triangles != r.simplified_triangles || r.inverted_tets != 0)
-        throw std::runtime_error(
-            "internal error: tetmesh covered " + std::to_string(r.covered_triangles) + " of " +
-            std::to_string(r.simplified_triangles) + " triangles exactly and left " +
-            std::to_string(r.inverted_tets) + " inverted tets; nothing was written");
-}
-
 /// Writes OUT (MSH or VTU, every tet of v with its region tag) and, when asked, the
 /// boundary surface of the inside tets.
 void write_tetmesh_output(const tetmesh_arguments& a, const idas::io::volume& v) {
@@ -120,20 +108,6 @@ void write_tetmesh_output(const tetmesh_arguments& a, const idas::io::volume& v)
     save(a.boundary, boundary_surface(inside), a.ascii);
 }
 
-/// The user's sizing field from a .msh file: its first scalar $NodeData, absolute lengths.
-idas::background_sizing read_sizing_mesh(const std::string& path, double outside) {
-    idas::io::volume bg = load_tets(path);
-    const auto field = std::find_if(bg.vertex_fields.begin(), bg.vertex_fields.end(),
-                                    [](const auto& f) { return f.components == 1; });
-    if (field == bg.vertex_fields.end())
-        throw idas::input_error(path + ": a sizing mesh needs a scalar $NodeData block (one " +
-                                "length per node); this file has " +
-                                std::to_string(bg.vertex_fields.size()) +
-                                " $NodeData blocks, none scalar");
-    return idas::background_sizing(std::move(bg.vertices), std::move(bg.tets), field->values,
-                                   outside, path);
-}
-
 /// What both stages report: the input, the insertion, the lengths and part 1's seconds.
 json insertion_json(const tetmesh_arguments& a, const idas::io::surface& s,
                     const idas::tetmesh::report& r) {
@@ -150,7 +124,7 @@ json insertion_json(const tetmesh_arguments& a, const idas::io::surface& s,
     j["diagonal"] = r.diagonal;
     j["epsilon"] = r.epsilon;
     j["edge_length"] = r.edge_length;
-    j["threads"] = a.threads;
+    j["threads"] = a.options.threads;
     j["seconds"] = {{"cleaning", r.seconds_cleaning}, {"simplification", r.seconds_simplification},
                     {"delaunay", r.seconds_delaunay}, {"insertion", r.seconds_insertion},
                     {"rounding", r.seconds_rounding}, {"checks", r.seconds_check}};
@@ -165,19 +139,14 @@ struct tetmesh_clock {
 
 /// The full run: parts 1 and 2.
 int run_tetmesh_optimized(const tetmesh_arguments& a, const idas::io::surface& s,
-                          const idas::tetmesh::options& o,
-                          const std::optional<idas::background_sizing>& sizing,
-                          tetmesh_clock& clock) {
-    idas::tetmesh::quality_options q;
-    q.stop_energy = a.stop_energy, q.max_iterations = a.max_iterations;
-    q.threads = a.threads, q.keep_outside = a.keep_outside;
-    q.sizing = sizing ? &*sizing : nullptr;
+                          const tetmesh_setup& setup, tetmesh_clock& clock) {
+    const unsigned max_iterations = a.options.max_iterations;
     std::optional<terminal_progress> bar;
     if (!a.as_json) bar.emplace("tetmesh");
-    idas::tetmesh::volume_mesh res = idas::tetmesh::mesh_volume(
-        s.vertices, s.faces, o, q, a.in, [&](unsigned round, double max_energy) {
+    const tetmeshed res =
+        tetmesh_volume(s, a.in, a.options, setup, [&](unsigned round, double max_energy) {
             if (bar)
-                bar->draw(double(round + 1) / std::max(1u, a.max_iterations),
+                bar->draw(double(round + 1) / std::max(1u, max_iterations),
                           "round " + std::to_string(round + 1) + ", max AMIPS " +
                               std::to_string(max_energy));
         });
@@ -185,25 +154,7 @@ int run_tetmesh_optimized(const tetmesh_arguments& a, const idas::io::surface& s
     const auto& r = res.insertion;
     const auto& qr = res.quality;
     const auto& opt = qr.optimization;
-    check_insertion_guarantee(r);
-    idas::io::volume v;
-    v.vertices = res.vertices;
-    for (std::size_t t = 0; t < res.tets.size(); ++t)
-        if (a.keep_outside || res.inside[t]) {
-            v.tets.push_back(res.tets[t]);
-            v.tags.push_back(res.inside[t] ? 1 : 2);
-        }
-    if (!a.keep_outside) { // drop the vertices only outside tets used
-        std::vector<idas::index_t> id(v.vertices.size(), idas::invalid_index);
-        std::vector<idas::vec3> kept;
-        for (auto& t : v.tets)
-            for (auto& x : t) {
-                if (id[x] == idas::invalid_index)
-                    id[x] = idas::index_t(kept.size()), kept.push_back(v.vertices[x]);
-                x = id[x];
-            }
-        v.vertices = std::move(kept);
-    }
+    const idas::io::volume& v = res.mesh;
     const stopwatch writing;
     write_tetmesh_output(a, v);
     clock.write = writing.seconds();
@@ -228,7 +179,7 @@ int run_tetmesh_optimized(const tetmesh_arguments& a, const idas::io::surface& s
         j["flat_or_inverted_tets"] = qr.flat_or_inverted;
         j["optimization"] = {{"iterations", opt.iterations},
                              {"stopped", stop},
-                             {"stop_energy", a.stop_energy},
+                             {"stop_energy", a.options.stop_energy},
                              {"max_energy_before", opt.max_energy_before},
                              {"max_energy", opt.max_energy},
                              {"splits", opt.splits},
@@ -237,8 +188,8 @@ int run_tetmesh_optimized(const tetmesh_arguments& a, const idas::io::surface& s
                              {"smooths", opt.smooths},
                              {"sizing_refinements", opt.sizing_refinements},
                              {"rational_vertices_left", opt.rational_left}};
-        j["kept"] = a.keep_outside ? "all tets; MSH physical tag 1 = inside, 2 = outside"
-                                   : "inside tets (MSH physical tag 1)";
+        j["kept"] = a.options.keep_outside ? "all tets; MSH physical tag 1 = inside, 2 = outside"
+                                           : "inside tets (MSH physical tag 1)";
         j["seconds"]["optimization"] = qr.seconds_optimization;
         j["seconds"]["winding_number_and_output"] = qr.seconds_output;
         j["seconds"]["read"] = clock.read;
@@ -283,62 +234,16 @@ int run_tetmesh(const tetmesh_arguments& a) {
                                                  ".obj, .off, .ply or .stl)");
         }
     }
-    check_threads(a.threads);
-    if (!(a.epsilon > 0) || !std::isfinite(a.epsilon) || (!a.absolute && a.epsilon > 1))
-        throw idas::input_error("--epsilon must be positive and finite (at most 1 when relative)");
-    if (!(a.edge_length > 0) || !std::isfinite(a.edge_length) ||
-        (!a.absolute && a.edge_length > 10))
-        throw idas::input_error(
-            "--edge-length must be positive and finite (at most 10 when relative)");
-    if (!(a.stop_energy >= 3) || !std::isfinite(a.stop_energy))
-        throw idas::input_error("--stop-energy must be a finite number of at least 3 (the "
-                                "AMIPS energy of a regular tet)");
-    if (a.max_iterations > 100000)
-        throw idas::input_error("--max-iterations must be at most 100000");
-    tbb::global_control threads(tbb::global_control::max_allowed_parallelism, a.threads);
-
-    // A number is a constant field (the edge length itself); anything else a sizing mesh.
-    std::optional<double> constant_sizing;
-    if (!a.sizing.empty()) {
-        if (a.stage != "optimize")
-            throw idas::input_error("--sizing applies to the optimization, not to --stage " +
-                                    a.stage);
-        double x = 0;
-        if (idas::io::detail::parse_double(a.sizing, x) == idas::io::detail::parse_status::ok) {
-            if (!(x > 0) || !std::isfinite(x) || (!a.absolute && x > 10))
-                throw idas::input_error("--sizing " + a.sizing +
-                                        ": a constant sizing must be positive and finite (at "
-                                        "most 10 when relative)");
-            constant_sizing = x;
-        } else if (lowercase_extension(a.sizing) != ".msh") {
-            throw idas::input_error("--sizing " + a.sizing +
-                                    ": neither a number nor a .msh sizing mesh");
-        }
-    }
+    const std::optional<double> constant_sizing = check_tetmesh_options(a.options);
+    tbb::global_control threads(tbb::global_control::max_allowed_parallelism, a.options.threads);
 
     const stopwatch reading;
     const idas::io::surface s = load(a.in);
     clock.read = reading.seconds();
-    idas::tetmesh::options o;
-    o.epsilon = a.epsilon, o.edge_length = a.edge_length, o.absolute = a.absolute;
-    if (constant_sizing) o.edge_length = *constant_sizing;
-    o.simplify = !a.no_simplify;
-    std::optional<idas::background_sizing> sizing;
-    if (!a.sizing.empty() && !constant_sizing) {
-        // Outside the sizing mesh: the run's own edge length, which needs the diagonal.
-        double outside = a.edge_length;
-        if (!a.absolute) {
-            idas::vec3 lo = s.vertices.empty() ? idas::vec3{} : s.vertices[0], hi = lo;
-            for (const auto& p : s.vertices)
-                for (int k = 0; k < 3; ++k)
-                    lo[k] = std::min(lo[k], p[k]), hi[k] = std::max(hi[k], p[k]);
-            outside *= idas::norm(hi - lo);
-        }
-        sizing.emplace(
-            read_sizing_mesh(a.sizing, outside > 0 && std::isfinite(outside) ? outside : 1.0));
-    }
-    if (a.stage == "optimize") return run_tetmesh_optimized(a, s, o, sizing, clock);
-    idas::tetmesh::result res = idas::tetmesh::mesh_insertion(s.vertices, s.faces, o, a.in);
+    const tetmesh_setup setup = prepare_tetmesh(a.options, s, constant_sizing);
+    if (a.options.stage == "optimize") return run_tetmesh_optimized(a, s, setup, clock);
+    idas::tetmesh::result res =
+        idas::tetmesh::mesh_insertion(s.vertices, s.faces, setup.options, a.in);
     const auto& r = res.stats;
     check_insertion_guarantee(r);
     if (r.inside_tets == 0)

@@ -1,0 +1,188 @@
+// `idas harmonic` and the Python module's idas.harmonic: the options, their checks, the
+// run on a point set (CGAL's Delaunay tetrahedralization, then the harmonic flips) and its
+// result check. The run needs CGAL (IDAS_CLI_HAVE_CGAL); the options and the check do not.
+#pragma once
+
+#include "common.hpp"
+
+#include <idas/algorithms/harmonic_triangulation.hpp>
+#if IDAS_CLI_HAVE_CGAL
+#include <idas/cgal/delaunay.hpp>
+#endif
+#include <idas/io/volume.hpp>
+#include <idas/mesh/tet_mesh.hpp>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+#include <tbb/parallel_sort.h>
+
+#include <array>
+#include <optional>
+#include <string>
+#include <tuple>
+#include <vector>
+
+namespace idas::tool {
+
+struct harmonic_options {
+    std::string mode = "complete";   // or "reduced"
+    std::string backend = "indexed"; // or "adjacency"
+    unsigned threads = 1, rounds = idas::algorithms::harmonic_options{}.rounds;
+    bool deterministic = false; // lock::deterministic_rounds
+};
+
+/// Every option that needs no input is checked before any work.
+inline void check_harmonic_options(const harmonic_options& o) {
+    if (o.mode != "reduced" && o.mode != "complete")
+        throw idas::input_error("--mode must be reduced or complete (got '" + o.mode + "')");
+    if (o.backend != "indexed" && o.backend != "adjacency")
+        throw idas::input_error("--backend must be indexed or adjacency (got '" + o.backend + "')");
+    check_threads(o.threads);
+}
+
+/// The result check of harmonic: every tet positively oriented (exact orient3d), every
+/// face shared by at most two tets, and the boundary a closed oriented 2-manifold with
+/// `boundary_chi` (the input hull's). One parallel sort of the faces.
+inline std::optional<std::string> check_harmonic_result(const idas::io::volume& v,
+                                                        long boundary_chi) {
+    const auto& V = v.vertices;
+    const auto& T = v.tets;
+    using range = tbb::blocked_range<std::size_t>;
+    // Each tet on its own, in parallel; the lowest bad tet is reported.
+    const auto tet_problem = [&](std::size_t t) -> std::optional<std::string> {
+        const auto& tv = T[t];
+        for (index_t x : tv)
+            if (x >= V.size()) return "tet " + std::to_string(t) + " references a missing vertex";
+        if (idas::orient3d(V[tv[0]], V[tv[1]], V[tv[2]], V[tv[3]]) <= 0)
+            return "tet " + std::to_string(t) + " is flat or inverted";
+        return std::nullopt;
+    };
+    const std::size_t first_bad = tbb::parallel_reduce(
+        range(0, T.size(), 4096), T.size(),
+        [&](const range& r, std::size_t bad) {
+            for (std::size_t t = r.begin(); t != r.end() && t < bad; ++t)
+                if (tet_problem(t)) return t;
+            return bad;
+        },
+        [](std::size_t a, std::size_t b) { return std::min(a, b); });
+    if (first_bad < T.size()) return tet_problem(first_bad);
+    // Every face (sorted key, as its tet sees it from outside), sorted so that copies of a
+    // face are adjacent: a face seen once is on the boundary, more than twice is an error.
+    struct face_use {
+        std::array<index_t, 3> key;
+        idas::tri_indices outward;
+    };
+    std::vector<face_use> faces(4 * T.size());
+    tbb::parallel_for(range(0, T.size(), 4096), [&](const range& r) {
+        for (std::size_t t = r.begin(); t != r.end(); ++t)
+            for (std::size_t k = 0; k < 4; ++k) {
+                const auto& lf = idas::tet_local::face_vertices[k];
+                const idas::tri_indices f = {T[t][lf[0]], T[t][lf[1]], T[t][lf[2]]};
+                std::array<index_t, 3> key = f;
+                std::sort(key.begin(), key.end());
+                faces[4 * t + k] = {key, f};
+            }
+    });
+    tbb::parallel_sort(faces.begin(), faces.end(), [](const face_use& a, const face_use& b) {
+        return std::tie(a.key[0], a.key[1], a.key[2], a.outward[0], a.outward[1], a.outward[2]) <
+               std::tie(b.key[0], b.key[1], b.key[2], b.outward[0], b.outward[1], b.outward[2]);
+    });
+    std::vector<idas::tri_indices> boundary;
+    for (std::size_t i = 0; i < faces.size();) {
+        std::size_t j = i + 1;
+        while (j < faces.size() && faces[j].key == faces[i].key) ++j;
+        if (j - i > 2) {
+            const auto& k = faces[i].key;
+            return "face (" + std::to_string(k[0]) + ", " + std::to_string(k[1]) + ", " +
+                   std::to_string(k[2]) + ") is shared by more than two tets";
+        }
+        if (j - i == 1) boundary.push_back(faces[i].outward);
+        i = j;
+    }
+    const auto b = idas::summarize_surface(V.size(), boundary);
+    if (b.problem) return "the boundary is not an oriented 2-manifold: " + *b.problem;
+    if (b.boundary_edges > 0) return "the boundary surface is not closed";
+    if (b.euler_characteristic != boundary_chi)
+        return "the boundary has Euler characteristic " + std::to_string(b.euler_characteristic) +
+               ", the input's has " + std::to_string(boundary_chi);
+    return std::nullopt;
+}
+
+#if IDAS_CLI_HAVE_CGAL
+struct harmonic_result {
+    idas::io::volume mesh;
+    std::size_t duplicate_points = 0;
+    idas::algorithms::harmonic_stats before, after;
+    idas::algorithms::harmonic_report report;
+    double delaunay_seconds = 0, check_seconds = 0;
+};
+
+/// The harmonic triangulation of `points` (from `source`, which error messages name);
+/// `progress` (may be null) hears (fraction done, note) after every phase. Laps "delaunay"
+/// ... "check" on `phases`.
+template <class Progress>
+harmonic_result harmonic_volume(const std::vector<idas::vec3>& points, const std::string& source,
+                                const harmonic_options& a, phase_times& phases,
+                                const Progress* progress) {
+    check_range(source, points);
+    harmonic_result out;
+    const stopwatch delaunay_clock;
+    idas::cgal::delaunay_result dt;
+    try {
+        dt = idas::cgal::delaunay_tetrahedralization(points, a.threads);
+    } catch (const idas::input_error& e) {
+        throw idas::input_error(source + ": " + e.what());
+    }
+    out.duplicate_points = dt.duplicates;
+    out.delaunay_seconds = delaunay_clock.seconds();
+    phases.lap("delaunay");
+    idas::algorithms::harmonic_options o;
+    o.mode = a.mode == "reduced" ? idas::algorithms::harmonic_mode::reduced
+                                 : idas::algorithms::harmonic_mode::complete;
+    o.rounds = a.rounds;
+    o.exec.threads = a.threads;
+    // The same run on either tet backend (--backend).
+    // The flips keep the convex hull: its boundary is a sphere before and after.
+    const auto flip = [&]<class Mesh>(Mesh m) {
+        phases.lap("build");
+        out.before = idas::algorithms::harmonic_statistics(m);
+        phases.lap("statistics_before");
+        const unsigned phase_count =
+            o.mode == idas::algorithms::harmonic_mode::reduced ? 1 : 1 + 2 * o.rounds;
+        unsigned ran = 0;
+        auto observer = [&](std::size_t phase, unsigned round, const idas::run_report& pr) {
+            static constexpr const char* names[] = {"3-2 flips", "smoothing", "seeded flips"};
+            if (progress)
+                (*progress)(double(++ran) / phase_count,
+                            std::string(names[phase]) + ", round " + std::to_string(round + 1) +
+                                ": " + std::to_string(pr.succeeded) + " done");
+        };
+        if (a.deterministic)
+            out.report = idas::algorithms::harmonic_triangulation<
+                Mesh, idas::lock::deterministic_rounds>::run_observed(m, o, observer);
+        else
+            out.report =
+                idas::algorithms::harmonic_triangulation<Mesh>::run_observed(m, o, observer);
+        phases.lap("flipping", out.report.setup_seconds, out.report.tail_seconds);
+        out.after = idas::algorithms::harmonic_statistics(m);
+        phases.lap("statistics_after");
+        std::tie(out.mesh.vertices, out.mesh.tets) = m.to_arrays();
+        phases.lap("export");
+        const stopwatch check_clock;
+        if (const auto failed = check_harmonic_result(out.mesh, 2))
+            throw std::runtime_error("internal error: harmonic produced an invalid mesh (result "
+                                     "check: " +
+                                     *failed + "); nothing was written");
+        out.check_seconds = check_clock.seconds();
+        phases.lap("check");
+    };
+    if (a.backend == "adjacency")
+        flip(idas::tet_mesh<idas::backend::adjacency_tet>(dt.vertices, dt.tets));
+    else
+        flip(idas::tet_mesh<idas::backend::indexed_tet>(dt.vertices, dt.tets));
+    return out;
+}
+#endif
+
+} // namespace idas::tool

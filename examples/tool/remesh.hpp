@@ -1,0 +1,160 @@
+// `idas remesh` and the Python module's idas.remesh: isotropic remeshing's options, their
+// checks and the run on a surface already read (target length from the diagonal, the
+// output-size limit, attributes, self-intersections and the envelope, the result check).
+// The envelope needs CGAL (IDAS_CLI_HAVE_CGAL).
+#pragma once
+
+#include "surface_stats.hpp"
+
+#include <idas/algorithms/isotropic_remeshing.hpp>
+#include <idas/invariants/no_self_intersection.hpp>
+#if IDAS_CLI_HAVE_CGAL
+#include <idas/invariants/envelope.hpp>
+#endif
+
+#include <cmath>
+#include <cstdint>
+#include <optional>
+#include <string>
+
+namespace idas::tool {
+
+struct remesh_options {
+    double edge_length = 0.01; // relative to the bounding-box diagonal unless absolute
+    bool absolute = false;
+    unsigned iterations = 5;
+    unsigned threads = 1;
+    std::optional<double> envelope;      // relative eps
+    std::optional<double> feature_angle; // degrees
+    bool keep_boundary = true;
+    bool deterministic = false;            // lock::deterministic_rounds
+    bool allow_self_intersections = false; // no_self_intersection off
+    std::string backend = "indexed";
+    // The default output limit: about 15 GB while remeshing (connectivity, queues,
+    // attributes and the written copy take some 150 bytes per face).
+    std::uint64_t max_faces = 100'000'000;
+};
+
+/// Every option that needs no input is checked before any reading.
+inline void check_remesh_options(const remesh_options& o) {
+    check_backend(o.backend);
+    check_threads(o.threads);
+    if (!(o.edge_length > 0) || !std::isfinite(o.edge_length))
+        throw idas::input_error("--edge-length must be a positive number");
+    if (o.envelope && !(*o.envelope > 0 && std::isfinite(*o.envelope)))
+        throw idas::input_error("--envelope must be a positive number");
+    if (o.feature_angle && !(*o.feature_angle >= 0 && *o.feature_angle <= 180))
+        throw idas::input_error("--feature-angle must be between 0 and 180 degrees");
+}
+
+/// Faces of an isotropic mesh of edge length L on the surface: area / (sqrt(3)/4 L^2).
+inline double estimated_faces(const idas::io::surface& s, double target_length) {
+    double area = 0;
+    for (const auto& f : s.faces)
+        area += 0.5 * idas::norm(idas::cross(s.vertices[f[1]] - s.vertices[f[0]],
+                                             s.vertices[f[2]] - s.vertices[f[0]]));
+    return area / (std::sqrt(3.0) / 4 * target_length * target_length);
+}
+
+/// Runs the remeshing; `progress` (may be null) hears (fraction done, note) after every phase.
+template <class Lock, class Mesh, class Progress, class... Extra>
+idas::algorithms::remeshing_report
+remesh_with(Mesh& m, const idas::algorithms::remeshing_options& o, unsigned threads,
+            const Progress* progress, Extra... extra) {
+    idas::exec_options exec;
+    exec.threads = threads;
+    static constexpr const char* phases[] = {"split", "collapse", "swap", "smooth"};
+    auto observer = [&](std::size_t phase, unsigned iteration, const idas::run_report&) {
+        if (!progress) return;
+        const double done = double(iteration * 4 + phase + 1) / double(4 * o.iterations);
+        (*progress)(done, "iteration " + std::to_string(iteration + 1) + "/" +
+                              std::to_string(o.iterations) + ", " + phases[phase % 4]);
+    };
+    return idas::algorithms::isotropic_remeshing<Mesh, Lock, idas::queue::dary_heap<4>,
+                                                 idas::partition::morton,
+                                                 Extra...>::run_observed(m, o, exec, observer,
+                                                                         extra...);
+}
+
+struct remeshed {
+    idas::io::surface mesh;
+    idas::algorithms::remeshing_report report;
+    double target_length = 0;
+    std::optional<double> envelope; // absolute
+    mesh_stats input_stats, output_stats;
+    double check_seconds = 0;
+};
+
+/// Remeshes `s` (read from `source`, which error messages name) on the mesh type Mesh;
+/// `progress` may be null. Laps "input_statistics" ... "check" on `phases`.
+template <class Mesh, class Progress>
+remeshed remesh_surface(const idas::io::surface& s, const std::string& source,
+                        const remesh_options& a, phase_times& phases, const Progress* progress) {
+    remeshed out;
+    out.input_stats = compute_stats(s);
+    phases.lap("input_statistics");
+    std::optional<Mesh> built;
+    auto& m = build_mesh(built, s, source);
+    phases.lap("build");
+    idas::algorithms::remeshing_options o;
+    o.target_length = a.absolute ? a.edge_length : a.edge_length * out.input_stats.diagonal;
+    if (!(o.target_length > 0) || !std::isfinite(o.target_length))
+        throw idas::input_error(fmt::format("--edge-length {} gives a target length of {} on {}",
+                                            a.edge_length, o.target_length, source));
+    // A tiny length would grow the mesh until memory runs out: refuse it up front.
+    if (const double n = estimated_faces(s, o.target_length); !(n <= double(a.max_faces)))
+        throw idas::input_error(fmt::format(
+            "--edge-length {} (target length {:.6g}) would make about {:.3g} faces on {}, more "
+            "than --max-faces {}",
+            a.edge_length, o.target_length, n, source, a.max_faces));
+    out.target_length = o.target_length;
+    o.iterations = a.iterations;
+    o.preserve_boundary = a.keep_boundary;
+    o.feature_angle_deg = a.feature_angle.value_or(-1);
+    // The file's attributes ride along; boundary and features are the remesher's own.
+    carried_attributes carried;
+    o.transfer = carried.attach(m, s, {});
+    phases.lap("attributes");
+
+    // Faces that meet other faces are refused unless asked otherwise; the index of faces
+    // lives through every phase, with cells of a few target lengths.
+    std::optional<idas::self_intersection_index> index;
+    if (!a.allow_self_intersections) index.emplace(m, 4 * o.target_length);
+    const idas::no_self_intersection guard =
+        index ? idas::no_self_intersection(*index) : idas::no_self_intersection();
+    phases.lap("self_intersection_index");
+    if (a.envelope) {
+#if IDAS_CLI_HAVE_CGAL
+        out.envelope = *a.envelope * out.input_stats.diagonal;
+        if (!std::isfinite(*out.envelope))
+            throw idas::input_error(
+                fmt::format("--envelope {} is too large for {}", *a.envelope, source));
+        const idas::envelope env(s.vertices, s.faces, *out.envelope);
+        out.report =
+            a.deterministic
+                ? remesh_with<idas::lock::deterministic_rounds>(m, o, a.threads, progress, env,
+                                                                guard)
+                : remesh_with<idas::lock::vertex_try_lock>(m, o, a.threads, progress, env, guard);
+#else
+        throw idas::input_error("--envelope needs a build with CGAL");
+#endif
+    } else {
+        out.report =
+            a.deterministic
+                ? remesh_with<idas::lock::deterministic_rounds>(m, o, a.threads, progress, guard)
+                : remesh_with<idas::lock::vertex_try_lock>(m, o, a.threads, progress, guard);
+    }
+    phases.lap("remeshing", out.report.setup_seconds, out.report.tail_seconds);
+    std::tie(out.mesh.vertices, out.mesh.faces) = m.to_arrays();
+    carried.export_to(m, out.mesh, s);
+    phases.lap("export");
+    out.output_stats = compute_stats(out.mesh);
+    phases.lap("output_statistics");
+    const stopwatch check_clock;
+    check_result("remesh", summary_of(out.input_stats.topo), summary_of(out.output_stats.topo));
+    out.check_seconds = check_clock.seconds();
+    phases.lap("check");
+    return out;
+}
+
+} // namespace idas::tool
