@@ -12,6 +12,8 @@ packages=(
   libtbb-dev libeigen3-dev libgmp-dev libboost-dev libmetis-dev doctest-dev
   # the tool, tests and benchmarks
   libcli11-dev libfmt-dev nlohmann-json3-dev libbenchmark-dev python3-matplotlib
+  # the Python module (python/) and its tests
+  pybind11-dev python3-dev python3-numpy python3-pytest
   # peers and the optional CGAL-based headers
   libcgal-dev libopenmesh-dev libmpfr-dev
   clang-format
