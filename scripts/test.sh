@@ -10,12 +10,12 @@ ctest --preset release -j"$(nproc)"
 # The parallel executor's tests (triangle and tet) again under ThreadSanitizer (exit code 66 on any report).
 cmake --preset tsan
 cmake --build --preset tsan --target idas_parallel_tests
-# About 4 minutes on 2 cores (the deterministic rounds of remeshing and harmonic
-# triangulation, 3 minutes more under TSan, are left to the release run); the limit turns
-# a hang into a failure that names this step.
+# About 4 minutes on 2 cores (the deterministic rounds of the harmonic triangulation,
+# 2 minutes more under TSan, are left to the release run); the limit turns a hang into a
+# failure that names this step.
 TSAN_OPTIONS="suppressions=$PWD/tests/tsan.supp ${TSAN_OPTIONS:-}" \
     timeout --signal=KILL 1200 ./build/tsan/tests/idas_parallel_tests -tc="parallel*,METIS*,harmonic*,adjacency*,vertex_try_lock*,deterministic*" \
-    -tce="*envelope*,deterministic rounds: isotropic*,deterministic rounds: harmonic*"
+    -tce="*envelope*,deterministic rounds: harmonic*"
 # Every file reader under libFuzzer with ASan + UBSan (exit 1 on any finding). CI has 2 cores
 # and 40 minutes for this whole script: 10 s for each of the 12 targets is about 2 minutes
 # plus under a minute to build the harnesses, enough to replay the seed and regression

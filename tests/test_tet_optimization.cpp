@@ -147,6 +147,33 @@ TEST_CASE("tetmesh optimization: one thread gives the same mesh on every run") {
     CHECK(a.mesh.inside == b.mesh.inside);
 }
 
+TEST_CASE("tetmesh optimization: deterministic rounds give the same mesh at any thread count") {
+    // The simplification and the optimization on lock::deterministic_rounds: every thread
+    // count (more than the cores too) writes the same vertices, tets and labels.
+    const auto s = io::read_surface(data_file("sphere.obj"));
+    auto run = [&](unsigned threads) {
+        tetmesh::options o;
+        o.deterministic = true;
+        tetmesh::quality_options q;
+        q.threads = threads;
+        return tetmesh::mesh_volume(s.vertices, s.faces, o, q, "sphere.obj");
+    };
+    const tetmesh::volume_mesh one = run(1);
+    CHECK(one.quality.flat_or_inverted == 0);
+    CHECK(one.quality.optimization.stopped == algorithms::tet_optimization_stop::energy_reached);
+    for (unsigned threads : {2u, 4u, 8u}) {
+        INFO(threads << " threads");
+        const tetmesh::volume_mesh many = run(threads);
+        CHECK(many.vertices == one.vertices);
+        CHECK(many.tets == one.tets);
+        CHECK(many.inside == one.inside);
+        CHECK(many.quality.optimization.iterations == one.quality.optimization.iterations);
+        CHECK(many.quality.optimization.splits == one.quality.optimization.splits);
+        CHECK(many.quality.optimization.max_energy_history ==
+              one.quality.optimization.max_energy_history);
+    }
+}
+
 TEST_CASE("tetmesh optimization: two and eight workers keep every invariant") {
     // More workers than cores: contention, retries and the serial tail all happen.
     for (unsigned threads : {2u, 8u}) mesh_and_check("sphere.obj", threads);

@@ -207,8 +207,9 @@ struct soup_simplification_spec {
 };
 
 /// The soup, simplified inside `envelope`; its cut copies are welded back by the caller.
-/// Returns the soup unchanged if its cut is not an editable mesh.
-template <filtered_envelope Envelope>
+/// Returns the soup unchanged if its cut is not an editable mesh. `Lock`: the executor's
+/// lock policy (lock::deterministic_rounds for the same result at any thread count).
+template <class Lock = lock::vertex_try_lock, filtered_envelope Envelope>
 std::pair<std::vector<vec3>, std::vector<tri_indices>>
 simplify_soup(const std::vector<vec3>& V, const std::vector<tri_indices>& F,
               const Envelope& envelope, const exec_options& exec) {
@@ -229,8 +230,8 @@ simplify_soup(const std::vector<vec3>& V, const std::vector<tri_indices>& F,
         });
     }
     soup_simplification_spec<Envelope> spec{&envelope, frozen.handle, origin.handle};
-    executor<soup_simplification_spec<Envelope>, tri_mesh<>, lock::vertex_try_lock,
-             queue::dary_heap<4>>::run(m, spec, exec);
+    executor<soup_simplification_spec<Envelope>, tri_mesh<>, Lock, queue::dary_heap<4>>::run(
+        m, spec, exec);
     return m.to_arrays();
 }
 

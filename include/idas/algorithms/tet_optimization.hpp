@@ -50,6 +50,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <bit>
 #include <chrono>
 #include <cmath>
@@ -919,24 +920,33 @@ struct tet_optimization {
     struct energy_summary {
         double max = 0, mean = 0;
     };
-    /// The largest and the mean AMIPS (over the tets whose energy is finite).
+    /// The largest and the mean AMIPS (over the tets whose energy is finite). Summed in
+    /// fixed blocks of slots, added in slot order, so that the mean (which decides when
+    /// the sizing adapts) does not depend on the thread count.
     static energy_summary energy_stats(const Mesh& m, unsigned threads) {
-        const unsigned T = std::max(1u, threads);
         struct block_stats {
             double max = 0, sum = 0;
             std::size_t finite = 0;
         };
-        std::vector<block_stats> block(T);
+        constexpr std::size_t block_slots = 4096;
         const std::size_t slots = m.tet_slots();
-        idas::detail::run_workers(T, T, [&](unsigned w) {
-            block_stats b;
-            for (std::size_t t = slots * w / T; t < slots * (w + 1) / T; ++t)
-                if (m.tet_alive(index_t(t))) {
-                    const double e = detail::amips(m, m.tet_vertices(index_t(t)));
-                    b.max = std::max(b.max, e);
-                    if (std::isfinite(e)) b.sum += e, ++b.finite;
-                }
-            block[w] = b;
+        std::vector<block_stats> block((slots + block_slots - 1) / block_slots);
+        std::atomic<std::size_t> next{0};
+        const unsigned T =
+            unsigned(std::clamp<std::size_t>(threads, 1, std::max<std::size_t>(block.size(), 1)));
+        idas::detail::run_workers(T, T, [&](unsigned) {
+            for (std::size_t k;
+                 (k = next.fetch_add(1, std::memory_order_relaxed)) < block.size();) {
+                block_stats b;
+                for (std::size_t t = k * block_slots; t < std::min(slots, (k + 1) * block_slots);
+                     ++t)
+                    if (m.tet_alive(index_t(t))) {
+                        const double e = detail::amips(m, m.tet_vertices(index_t(t)));
+                        b.max = std::max(b.max, e);
+                        if (std::isfinite(e)) b.sum += e, ++b.finite;
+                    }
+                block[k] = b;
+            }
         });
         energy_summary out;
         double sum = 0;

@@ -25,6 +25,7 @@
 #include <cmath>
 #include <map>
 #include <string>
+#include <type_traits>
 #include <unordered_map>
 #include <vector>
 
@@ -42,6 +43,10 @@ struct options {
     /// insertion, as fTetWild does (the full pipeline only: part 1 alone inserts every
     /// input triangle as it is).
     bool simplify = true;
+    /// The same mesh at any thread count: the simplification and the optimization run on
+    /// lock::deterministic_rounds instead of vertex_try_lock (the other stages are
+    /// deterministic at any thread count already).
+    bool deterministic = false;
 };
 
 /// No target length below this fraction of the diagonal (the edge length option; a sizing
@@ -226,7 +231,10 @@ inline result insert_soup(const std::vector<vec3>& vertices, const std::vector<t
         const envelope thinner(soup.vertices, soup.faces, 0.8 * r.epsilon);
         exec_options exec;
         exec.threads = std::max(1u, threads);
-        auto [V, F] = algorithms::simplify_soup(soup.vertices, soup.faces, thinner, exec);
+        auto [V, F] = opt.deterministic
+                          ? algorithms::simplify_soup<lock::deterministic_rounds>(
+                                soup.vertices, soup.faces, thinner, exec)
+                          : algorithms::simplify_soup(soup.vertices, soup.faces, thinner, exec);
         report ignored;
         inserted = clean(V, F, source, ignored);
     } else {
@@ -539,10 +547,14 @@ volume_mesh mesh_volume(const std::vector<vec3>& vertices, const std::vector<tri
     o.stop_energy = q.stop_energy, o.max_iterations = q.max_iterations;
     exec_options exec;
     exec.threads = std::max(1u, q.threads);
-    using optimization = algorithms::tet_optimization<envelope>;
-    qr.optimization =
-        q.sizing ? optimization::run(m, tracked, M.exact, env, input, o, exec, observer, *q.sizing)
-                 : optimization::run(m, tracked, M.exact, env, input, o, exec, observer);
+    const auto optimize = [&]<class Lock>(std::type_identity<Lock>) {
+        using optimization = algorithms::tet_optimization<envelope, tet_mesh<>, Lock>;
+        return q.sizing ? optimization::run(m, tracked, M.exact, env, input, o, exec, observer,
+                                            *q.sizing)
+                        : optimization::run(m, tracked, M.exact, env, input, o, exec, observer);
+    };
+    qr.optimization = opt.deterministic ? optimize(std::type_identity<lock::deterministic_rounds>{})
+                                        : optimize(std::type_identity<lock::vertex_try_lock>{});
     qr.seconds_optimization = detail::seconds_since(t0);
 
     t0 = clock::now();

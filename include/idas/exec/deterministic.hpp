@@ -57,15 +57,15 @@ struct deterministic_rounds {
 
 namespace idas::detail {
 
-/// Runs fn(begin, end, thread) over [0, n) in chunks on `threads` threads.
+/// Runs fn(begin, end, thread) over [0, n) in chunks on the pool's threads.
 template <class Fn>
-void parallel_chunks(unsigned threads, std::size_t n, std::size_t chunk, Fn&& fn) {
+void parallel_chunks(worker_pool& pool, std::size_t n, std::size_t chunk, Fn&& fn) {
     if (n == 0) return;
     const unsigned T =
-        static_cast<unsigned>(std::min<std::size_t>(threads, (n + chunk - 1) / chunk));
+        static_cast<unsigned>(std::min<std::size_t>(pool.size(), (n + chunk - 1) / chunk));
     if (T <= 1) return fn(std::size_t{0}, n, 0u);
     std::atomic<std::size_t> next{0};
-    run_workers(T, T, [&](unsigned t) {
+    pool.run(T, [&](unsigned t) {
         for (std::size_t b; (b = next.fetch_add(chunk, std::memory_order_relaxed)) < n;)
             fn(b, std::min(n, b + chunk), t);
     });
@@ -107,7 +107,9 @@ class deterministic_engine {
         run_report report;
     };
     /// What became of a candidate this round; all but `ran` go back to their shard.
-    enum class fate : std::uint8_t { waits, beaten, wins, ran };
+    enum class fate : std::uint8_t { waits, beaten, blocked, won_now, wins, ran };
+    /// Passes of the winners' selection in one round (see select_winners).
+    static constexpr unsigned max_passes = 3;
 
 public:
     explicit deterministic_engine(Run& run)
@@ -128,8 +130,7 @@ public:
         live_ = hooks::counts(m_);
         const double seeded = seeding.seconds();
         while (!hooks::should_stop(spec_, live_) && fill_and_select() > 0) {
-            mark_regions();
-            if (pick_winners() == 0) continue; // cannot happen: the best candidate wins
+            if (select_winners() == 0) continue; // cannot happen: the best candidate wins
             execute_winners();
             merge_round();
         }
@@ -285,55 +286,43 @@ private:
         return cand_.size();
     }
 
-    /// Every candidate writes itself into the mark of each vertex of its region unless a
-    /// better candidate is there: afterwards each mark holds the best candidate touching it.
-    void mark_regions() {
+    /// The round's winners, in passes: each pass, the candidates still waiting whose
+    /// regions meet no winner's find the best among them (mark_regions) and those best
+    /// among every such candidate they overlap win (pick_winners). A candidate beaten in
+    /// one pass by a candidate that then lost to a winner can win in the next: where the
+    /// best candidates crowd around one place (the longest edges of a tet mesh around one
+    /// vertex), one pass leaves a handful of winners per round. Each pass depends only on
+    /// the candidates and the mesh, never on the threads. A spec's goal caps the winners,
+    /// best first. Returns how many won.
+    std::size_t select_winners() {
         ++rounds_;
         const std::size_t n = hooks::lock_words(spec_, m_);
         if (n > mark_size_) {
             mark_size_ = std::max<std::size_t>(n, mark_size_ * 3 / 2);
             marks_ = std::make_unique<std::atomic<std::uint64_t>[]>(mark_size_);
+            taken_ = std::make_unique<std::uint32_t[]>(mark_size_);
             for (std::size_t v = 0; v < mark_size_; ++v)
-                marks_[v].store(0, std::memory_order_relaxed);
+                marks_[v].store(0, std::memory_order_relaxed), taken_[v] = 0;
         }
-        const std::uint64_t stamp = std::uint64_t(rounds_) << 32;
-        parallel_chunks(T_, cand_.size(), 256, [&](std::size_t b, std::size_t e, unsigned) {
-            for (std::size_t i = b; i < e; ++i) {
-                const std::uint64_t mine = stamp | i;
-                bool beaten = false;
-                auto mark = [&](index_t v) {
-                    std::uint64_t seen = marks_[v].load(std::memory_order_relaxed);
-                    while ((seen >> 32) != rounds_ || better(i, seen & 0xffffffffu))
-                        if (marks_[v].compare_exchange_weak(seen, mine, std::memory_order_relaxed))
-                            return true;
-                    beaten |= seen != mine;
-                    // Mark the whole region even when beaten: which marks a candidate
-                    // leaves must not depend on when the better one came by.
-                    return true;
-                };
-                walk_region(i, mark);
-                if (beaten) fate_[i] = fate::beaten; // no need to look again
-            }
-        });
-    }
-
-    /// A candidate wins if it holds the mark of every vertex of its region: it is better
-    /// than every candidate it overlaps. The winners' regions are disjoint. A spec's goal
-    /// caps them, best first. Returns how many won.
-    std::size_t pick_winners() {
-        const std::uint64_t stamp = std::uint64_t(rounds_) << 32;
-        parallel_chunks(T_, cand_.size(), 256, [&](std::size_t b, std::size_t e, unsigned) {
-            for (std::size_t i = b; i < e; ++i) {
-                const std::uint64_t mine = stamp | i;
-                auto held = [&](index_t v) {
-                    return marks_[v].load(std::memory_order_relaxed) == mine;
-                };
-                if (fate_[i] == fate::waits && walk_region(i, held)) fate_[i] = fate::wins;
-            }
-        });
         winners_.clear();
-        for (std::size_t i = 0; i < cand_.size(); ++i)
-            if (fate_[i] == fate::wins) winners_.push_back(i);
+        for (unsigned pass = 0; pass < max_passes; ++pass) {
+            const std::size_t before = winners_.size();
+            mark_regions(pass > 0);
+            pick_winners();
+            if (winners_.size() == before || pass + 1 == max_passes) break;
+            // The new winners' regions are taken; whoever was beaten waits again.
+            parallel_chunks(pool_, winners_.size() - before, 256,
+                            [&](std::size_t b, std::size_t e, unsigned) {
+                                auto take = [&](index_t v) { return taken_[v] = rounds_, true; };
+                                for (std::size_t w = before + b; w < before + e; ++w)
+                                    walk_region(winners_[w], take);
+                            });
+            bool open = false;
+            for (auto& f : fate_)
+                if (f == fate::beaten) f = fate::waits, open = true;
+            if (!open) break;
+        }
+        std::sort(winners_.begin(), winners_.end());
         if constexpr (remaining_hook<Spec>) {
             const std::int64_t goal = std::max<std::int64_t>(1, spec_.remaining(live_));
             if (std::int64_t(winners_.size()) > goal) {
@@ -346,6 +335,60 @@ private:
             }
         }
         return winners_.size();
+    }
+
+    /// Every waiting candidate writes itself into the mark of each vertex of its region
+    /// unless a better candidate is there: afterwards each mark holds the best candidate
+    /// touching it. After the first pass (`check_taken`), a candidate whose region meets a
+    /// winner's is blocked until the next round and marks nothing.
+    void mark_regions(bool check_taken) {
+        ++epoch_;
+        const std::uint64_t stamp = std::uint64_t(epoch_) << 32;
+        parallel_chunks(pool_, cand_.size(), 256, [&](std::size_t b, std::size_t e, unsigned) {
+            for (std::size_t i = b; i < e; ++i) {
+                if (fate_[i] != fate::waits) continue;
+                if (check_taken) {
+                    auto free = [&](index_t v) { return taken_[v] != rounds_; };
+                    if (!walk_region(i, free)) {
+                        fate_[i] = fate::blocked;
+                        continue;
+                    }
+                }
+                const std::uint64_t mine = stamp | i;
+                bool beaten = false;
+                auto mark = [&](index_t v) {
+                    std::uint64_t seen = marks_[v].load(std::memory_order_relaxed);
+                    while ((seen >> 32) != epoch_ || better(i, seen & 0xffffffffu))
+                        if (marks_[v].compare_exchange_weak(seen, mine, std::memory_order_relaxed))
+                            return true;
+                    beaten |= seen != mine;
+                    // Mark the whole region even when beaten: which marks a candidate
+                    // leaves must not depend on when the better one came by.
+                    return true;
+                };
+                walk_region(i, mark);
+                if (beaten) fate_[i] = fate::beaten; // no need to look again this pass
+            }
+        });
+    }
+
+    /// A waiting candidate wins if it holds the mark of every vertex of its region: it is
+    /// better than every candidate of this pass it overlaps. The winners' regions are
+    /// disjoint, and disjoint from earlier passes' winners'. Appends them to winners_, in
+    /// candidate order.
+    void pick_winners() {
+        const std::uint64_t stamp = std::uint64_t(epoch_) << 32;
+        parallel_chunks(pool_, cand_.size(), 256, [&](std::size_t b, std::size_t e, unsigned) {
+            for (std::size_t i = b; i < e; ++i) {
+                const std::uint64_t mine = stamp | i;
+                auto held = [&](index_t v) {
+                    return marks_[v].load(std::memory_order_relaxed) == mine;
+                };
+                if (fate_[i] == fate::waits && walk_region(i, held)) fate_[i] = fate::won_now;
+            }
+        });
+        for (std::size_t i = 0; i < cand_.size(); ++i)
+            if (fate_[i] == fate::won_now) fate_[i] = fate::wins, winners_.push_back(i);
     }
 
     /// Runs the winners in parallel, each taking new slots from its own pool.
@@ -362,7 +405,7 @@ private:
                               std::span<const index_t>(cell_quota_));
         }
         face_delta_.assign(W, 0), vertex_delta_.assign(W, 0);
-        parallel_chunks(T_, W, 16, [&](std::size_t b, std::size_t e, unsigned t) {
+        parallel_chunks(pool_, W, 16, [&](std::size_t b, std::size_t e, unsigned t) {
             thread_state& me = *threads_[t];
             op_context<Mesh>& ctx = *me.ctx;
             ctx.worker = t;
@@ -457,7 +500,7 @@ private:
     /// fn(shard, thread) for every shard, one thread per shard at a time.
     template <class Fn>
     void each_shard(Fn&& fn) {
-        parallel_chunks(T_, K, 1, [&](std::size_t b, std::size_t e, unsigned t) {
+        parallel_chunks(pool_, K, 1, [&](std::size_t b, std::size_t e, unsigned t) {
             for (std::size_t s = b; s < e; ++s) fn(unsigned(s), t);
         });
     }
@@ -466,10 +509,11 @@ private:
     Mesh& m_;
     Spec& spec_;
     unsigned T_;
+    worker_pool pool_{T_}; // the rounds' threads, started once
     std::vector<std::unique_ptr<thread_state>> threads_;
     std::vector<shard> shards_ = std::vector<shard>(K);
     progress live_;
-    std::uint32_t rounds_ = 0;
+    std::uint32_t rounds_ = 0, epoch_ = 0;
     std::vector<entry> cand_, keys_;
     entry last_{};
     std::vector<std::uint8_t> cand_shard_;
@@ -478,6 +522,7 @@ private:
     std::vector<index_t> vertex_quota_, cell_quota_;
     std::vector<std::int64_t> face_delta_, vertex_delta_;
     std::unique_ptr<std::atomic<std::uint64_t>[]> marks_;
+    std::unique_ptr<std::uint32_t[]> taken_; // the round whose winner's region holds it
     std::size_t mark_size_ = 0;
 };
 
