@@ -141,11 +141,7 @@ int run_tet_convert(const std::string& in, const std::string& out, bool ascii,
     const idas::io::volume v = load_tets(in);
     const auto enc = ascii ? idas::io::encoding::ascii : idas::io::encoding::binary;
     if (is_vtu_path(out)) {
-        idas::io::vtu_options options;
-        options.enc = enc;
-        for (const auto& f : v.vertex_fields) // NaN (no value in the MSH file) stays NaN
-            options.point_data.push_back({f.name, f.components, f.values});
-        idas::io::write_vtu(out, v, options);
+        write_vtu_file(out, v, enc);
     } else if (to_tets) {
         idas::io::write_msh(out, v,
                             a.msh_version == "2.2" ? idas::io::msh_version::v2_2

@@ -12,7 +12,6 @@
 #include "tool/tet_stats.hpp"
 
 #include <idas/io/msh.hpp>
-#include <idas/io/vtu.hpp>
 
 #include <pybind11/stl/filesystem.h>
 
@@ -79,15 +78,22 @@ void write(const std::filesystem::path& file, const py::object& vertices, const 
         if (msh_version != "2.2" && msh_version != "4.1")
             refuse("msh_version must be \"2.2\" or \"4.1\" (got \"" + msh_version + "\")");
         const io::volume v = volume_from(vertices, cells, attributes);
-        py::gil_scoped_release nogil;
-        if (tool::is_vtu_path(path)) {
-            io::vtu_options options;
-            options.enc = enc;
-            io::write_vtu(path, v, options);
-        } else {
+        if (!tool::is_vtu_path(path)) {
+            py::gil_scoped_release nogil;
             io::write_msh(
                 path, v, msh_version == "4.1" ? io::msh_version::v4_1 : io::msh_version::v2_2, enc);
+            return;
         }
+        // VTU holds the vertex fields, as `idas convert` writes it.
+        std::vector<std::string> lost;
+        if (!v.tags.empty()) lost.push_back("tag (tet)");
+        for (const auto& f : v.tet_fields) lost.push_back(f.name + " (tet)");
+        if (!v.triangles.empty()) lost.push_back("triangles");
+        {
+            py::gil_scoped_release nogil;
+            tool::write_vtu_file(path, v, enc);
+        }
+        if (!lost.empty()) warn(tool::unstored_warning(path, lost));
         return;
     }
     io::format_of(path); // an unknown extension fails before any conversion

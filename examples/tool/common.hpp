@@ -9,6 +9,7 @@
 #include <idas/idas.hpp>
 #include <idas/io/io.hpp>
 #include <idas/io/msh.hpp>
+#include <idas/io/vtu.hpp>
 #include <idas/mesh/geometry_range.hpp>
 #include <idas/mesh/surface_check.hpp>
 
@@ -165,6 +166,17 @@ Mesh& build_mesh(std::optional<Mesh>& built, const idas::io::surface& s,
         throw idas::input_error(source + ": " + e.what());
     }
     return *built;
+}
+
+/// Writes a tet mesh as VTU the way `idas convert` does: its vertex fields as point data
+/// (NaN where an MSH file gives no value stays NaN).
+inline void write_vtu_file(const std::string& path, const idas::io::volume& v,
+                           idas::io::encoding enc) {
+    idas::io::vtu_options options;
+    options.enc = enc;
+    for (const auto& f : v.vertex_fields)
+        options.point_data.push_back({f.name, f.components, f.values});
+    idas::io::write_vtu(path, v, options);
 }
 
 /// True for the extensions of tet mesh files (.msh, .vtu; any case).

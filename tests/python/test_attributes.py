@@ -85,3 +85,14 @@ def test_tet_fields_round_trip(bunny, tmp_path):
         for name, column in attributes.items():
             assert back[name]["domain"] == column["domain"]
             assert np.array_equal(back[name]["values"], column["values"])
+
+
+def test_vtu_keeps_vertex_fields_and_says_what_it_drops(bunny, tmp_path):
+    v, t, _ = idas.harmonic(bunny[0][:200], mode="reduced")
+    attributes = {
+        "tag": {"domain": "tet", "values": np.ones(len(t), np.int32)},
+        "pressure": {"domain": "vertex", "values": v[:, 0].copy()},
+    }
+    with pytest.warns(UserWarning, match=r"cannot store these attributes.*tag \(tet\)"):
+        idas.write(tmp_path / "out.vtu", v, t, attributes, ascii=True)
+    assert 'Name="pressure"' in (tmp_path / "out.vtu").read_text()
