@@ -7,7 +7,7 @@
 //   idas demo IN OUT [--json] [--seed S] [--ops N] [--ascii] [--backend B]
 //                                              random local operations guarded by invariants
 //   idas decimate IN OUT (--ratio R | --faces N) [--algorithm A] [--threads T] [--backend B]
-//                 [--deterministic] [--allow-self-intersections]
+//                 [--deterministic] [--allow-self-intersections] [--attribute-weight W]
 //                                              shortest edge collapse or QSlim
 //   idas remesh IN OUT --edge-length L [--absolute] [--iterations K] [--threads T]
 //               [--envelope EPS] [--backend B] [--deterministic] [--allow-self-intersections]
@@ -426,6 +426,9 @@ int run_decimate(const std::string& in, const std::string& out, const decimate_o
     phase_times phases;
     idas::io::format_of(out); // an unknown output extension fails before any work
     check_decimate_options(o);
+    if (o.attribute_weight && drop_attributes)
+        throw idas::input_error("--attribute-weight has no attributes to weigh with "
+                                "--drop-attributes");
     // Reading, checking and writing use oneTBB: on as many threads as the algorithm.
     const tbb::global_control parallelism(tbb::global_control::max_allowed_parallelism, o.threads);
     const idas::io::surface s = load(in, !drop_attributes);
@@ -457,6 +460,9 @@ int run_decimate(const std::string& in, const std::string& out, const decimate_o
         j["rounds"] = r.rounds;
         j["attributes"] = attributes_json(result);
         j["constrained_vertices"] = d.constrained_vertices;
+        if (o.algorithm == "qslim")
+            j["attribute_weight"] =
+                o.attribute_weight.value_or(idas::algorithms::qslim_spec::default_attribute_weight);
         j["seconds_algorithm"] = r.seconds;
         j["seconds_check"] = d.check_seconds;
         j["seconds_total"] = phases.total();
@@ -587,11 +593,19 @@ int run(int argc, char** argv) {
     auto* feature_angle_opt = decimate->add_option(
         "--feature-angle", feature_angle,
         "no vertex on an edge sharper than this dihedral angle (degrees) moves or disappears");
+    double attribute_weight = idas::algorithms::qslim_spec::default_attribute_weight;
+    auto* attribute_weight_opt =
+        decimate
+            ->add_option("--attribute-weight", attribute_weight,
+                         "QSlim: how much texture coordinates, colours and other attributes "
+                         "(not normals) weigh against the shape; 0: the shape alone")
+            ->capture_default_str();
     decimate->callback([&] {
         if (ratio_opt->count() + faces_opt->count() != 1)
             throw CLI::ValidationError("decimate", "give exactly one of --ratio R or --faces N");
         if (ratio_opt->count() > 0) dec.ratio = ratio;
         if (feature_angle_opt->count() > 0) dec.feature_angle = feature_angle;
+        if (attribute_weight_opt->count() > 0) dec.attribute_weight = attribute_weight;
     });
 
     remesh_arguments ra;

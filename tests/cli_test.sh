@@ -867,6 +867,23 @@ run --version
 expect_rc "--version" 0
 if grep -q '^idas [0-9]*\.[0-9]*\.[0-9]*$' "$TMP/out"; then ok; else fail "--version: $(cat "$TMP/out")"; fi
 
+# ---- attribute weight (issue 21 item 2) -------------------------------------------------------
+
+run decimate "$DATA/blub.obj" "$TMP/blub_w_default.obj" --ratio 0.1 --json
+expect_field "decimate: default attribute weight" "d['attribute_weight']" "0.2"
+run decimate "$DATA/blub.obj" "$TMP/blub_w0.obj" --ratio 0.1 --attribute-weight 0 --json
+expect_rc "decimate --attribute-weight 0" 0
+expect_field "decimate --attribute-weight 0" "d['attribute_weight']" "0.0"
+if ! cmp -s "$TMP/blub_w0.obj" "$TMP/blub_w_default.obj"; then ok; else fail "decimate --attribute-weight 0: same output as the default weight"; fi
+for w in -1 nan inf; do
+    run decimate "$DATA/blub.obj" "$TMP/blub_w_bad.obj" --ratio 0.1 --attribute-weight=$w
+    expect_error "decimate --attribute-weight $w" 2 "attribute-weight must be a finite number >= 0"
+done
+run decimate "$DATA/blub.obj" "$TMP/blub_w_sec.obj" --ratio 0.1 --algorithm shortest-edge --attribute-weight 1
+expect_error "decimate --attribute-weight with shortest-edge" 2 "qslim only"
+run decimate "$DATA/blub.obj" "$TMP/blub_w_drop.obj" --ratio 0.1 --drop-attributes --attribute-weight 1
+expect_error "decimate --attribute-weight with --drop-attributes" 2 "drop-attributes"
+
 # ---- self-intersections (issue 16 item 5 b) --------------------------------------------------
 # A thin bumpy plate (tests/test_support.hpp's noisy_thin_plate): two nearly touching sheets,
 # where QSlim to 10% without the invariant folds one through the other.

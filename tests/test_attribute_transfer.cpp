@@ -466,7 +466,8 @@ TEST_CASE("attribute quadric: its terms are the faces' attribute errors, with mo
     t.attach(m, in);
     const double weight = 0.7;
     attribute_quadric q;
-    q.attach(m, t, weight);
+    const auto no_geometry = m.add_vertex_attribute<quadric>("no_geometry"); // attributes alone
+    q.attach(m, t, weight, no_geometry);
     REQUIRE(q.active());
     vec3 lo = in.vertices[0], hi = lo;
     for (const vec3& p : in.vertices)
@@ -507,5 +508,6 @@ TEST_CASE("attribute quadric: its terms are the faces' attribute errors, with mo
         CHECK(q.error_at(m, t, 0, a, b, p) == doctest::Approx(at_a).epsilon(1e-7).scale(scale));
     }
     q.detach(m);
+    m.remove_attribute(no_geometry);
     t.detach(m);
 }

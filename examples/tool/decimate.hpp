@@ -26,6 +26,9 @@ struct decimate_options {
     bool allow_self_intersections = false; // no_self_intersection off
     std::optional<double> feature_angle;   // degrees
     std::string backend = "indexed";
+    /// QSlim: how much the attributes weigh against the shape (qslim_spec::attribute_weight;
+    /// its default when not given).
+    std::optional<double> attribute_weight;
 };
 
 /// Every option that needs no input is checked before any reading.
@@ -40,6 +43,11 @@ inline void check_decimate_options(const decimate_options& o) {
     if (!o.ratio && o.faces < 0) throw idas::input_error("--faces must be non-negative");
     if (o.feature_angle && !(*o.feature_angle >= 0 && *o.feature_angle <= 180))
         throw idas::input_error("--feature-angle must be between 0 and 180 degrees");
+    if (o.attribute_weight && !(*o.attribute_weight >= 0 && std::isfinite(*o.attribute_weight)))
+        throw idas::input_error("--attribute-weight must be a finite number >= 0 (got " +
+                                std::to_string(*o.attribute_weight) + ")");
+    if (o.attribute_weight && o.algorithm != "qslim")
+        throw idas::input_error("--attribute-weight applies to --algorithm qslim only");
 }
 
 /// Wraps a decimation spec to report progress: the executor calls `stop` after every
@@ -61,17 +69,19 @@ struct with_progress : Base {
 };
 
 template <class Algorithm, class Spec, class Mesh, class Progress>
-idas::run_report decimate_with(Mesh& m, std::int64_t target, unsigned threads,
+idas::run_report decimate_with(Mesh& m, std::int64_t target, const decimate_options& o,
                                const idas::algorithms::attribute_transfer* transfer,
                                idas::no_self_intersection guard, const Progress* progress) {
     with_progress<Spec, Progress> spec;
     spec.target_faces = target;
+    if constexpr (requires { spec.attribute_weight; })
+        spec.attribute_weight = o.attribute_weight.value_or(spec.attribute_weight);
     spec.transfer = transfer;
     spec.self_intersections = guard;
     spec.start_faces = static_cast<std::int64_t>(m.n_faces());
     spec.progress = progress;
     idas::exec_options options;
-    options.threads = threads;
+    options.threads = o.threads;
     return Algorithm::template with_spec<with_progress<Spec, Progress>>::run(m, spec, options);
 }
 
@@ -115,12 +125,12 @@ decimated decimate_surface(const idas::io::surface& s, const std::string& source
 
     const auto run = [&]<class Lock>(std::type_identity<Lock>) {
         if (o.algorithm == "qslim")
-            d.report = decimate_with<qslim<Mesh, Lock>, qslim_spec>(m, d.target_faces, o.threads,
-                                                                    transfer, guard, progress);
+            d.report = decimate_with<qslim<Mesh, Lock>, qslim_spec>(m, d.target_faces, o, transfer,
+                                                                    guard, progress);
         else
             d.report = decimate_with<shortest_edge_collapse<true, Mesh, Lock>,
-                                     shortest_edge_collapse_spec<true>>(
-                m, d.target_faces, o.threads, transfer, guard, progress);
+                                     shortest_edge_collapse_spec<true>>(m, d.target_faces, o,
+                                                                        transfer, guard, progress);
     };
     if (o.deterministic)
         run(std::type_identity<idas::lock::deterministic_rounds>{});

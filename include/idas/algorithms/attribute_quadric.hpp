@@ -2,24 +2,25 @@
 // for simplifying meshes with appearance attributes"), so that texture and colour detail
 // guide the simplification.
 //
-//   A  per vertex, besides its geometric quadric: for every face around it and every
+//   A  per vertex, added to its geometric quadric: for every face around it and every
 //      attribute component j, area * (g_j . p + d_j - s_j)^2, the distance of the
 //      vertex's value s_j from the face's linear field (gradient g_j in the face's plane).
 //      Summed, E(p, s) = q(p) - 2 sum_j s_j (G_j . p + e_j) + w sum_j s_j^2: a 4x4
-//      quadric q, the area w and one (G_j, e_j) per component, 11 + 4m numbers (the
-//      dense (4 + m)^2 matrix of Garland and Heckbert 1998 grows with m^2), in one
-//      column for m <= 4 (measured on the coloured armadillo, m = 3: 2-4% faster than a
-//      column per component)
+//      quadric q (the geometric one included), the area w and one (G_j, e_j) per
+//      component, 11 + 4m numbers (the dense (4 + m)^2 matrix of Garland and Heckbert 1998
+//      grows with m^2), in one column for m <= 4, so that a priority reads one place per
+//      vertex (measured on the coloured armadillo, m = 3: 2-4% faster than a column per
+//      component)
 //   D  the collapse's error with the values at their best, min_s E: a 4x4 quadric in p
 //      (q - sum_j (G_j, e_j)(G_j, e_j)^T / w), minimised by QSlim as before
 //
 // Per vertex, not per wedge (one value set per chart corner, as Hoppe): a vertex whose
 // corners disagree is on a seam, and attribute_transfer constrains it (it never moves nor
 // vanishes); every other vertex has one value per component, so its terms are in one s.
-// A constrained vertex has no terms of its own (its faces may lie in several charts, whose
-// terms cannot share one s); a collapse into it is priced at its place with its values in
-// the collapsed edge's face (what the transfer writes there), and the removed vertex's
-// terms are dropped with it.
+// A constrained vertex has only its geometric quadric (its faces may lie in several charts,
+// whose terms cannot share one s); a collapse into it is priced at its place with its
+// values in the collapsed edge's face (what the transfer writes there), and the removed
+// vertex's attribute terms are dropped with it.
 // The new vertex's values stay the transfer's barycentric interpolation, not min_s E's
 // optimum: interpolation stays within the input's values around (an optimum can
 // extrapolate past a chart's border), and it is what the transfer's texture-fold and seam
@@ -44,9 +45,9 @@ namespace idas::algorithms {
 /// One component's sum over a vertex's faces of area * (g_j, d_j).
 using attribute_gradient = std::array<double, 4>;
 
-/// A vertex's terms, in one column so that a priority reads one place per vertex: the sum
-/// over its faces and components of area * (g_j . p + d_j)^2, the faces' area, and the
-/// first `inline_components` gradients (uv, rgb, rgba: all of them).
+/// A vertex's terms: its geometric quadric plus the sum over its faces and components of
+/// area * (g_j . p + d_j)^2, the faces' area, and the first `inline_components` gradients
+/// (uv, rgb, rgba: all of them).
 struct attribute_terms {
     static constexpr std::size_t inline_components = 4;
     quadric q;
@@ -70,7 +71,7 @@ public:
     struct merged {
         quadric q;
         double w = 0;
-        bool write = false; // false for a constrained survivor
+        std::uint32_t count = 0; // gradients; none for a constrained survivor
         attribute_gradient g[max_components];
         merged() {} // the array stays uninitialised until filled
     };
@@ -78,10 +79,11 @@ public:
     /// True if attach() found components to weigh (some that are not constant).
     bool active() const noexcept { return !scale_.empty(); }
 
-    /// Adds the run's columns and sums every face's terms into its unconstrained corners.
-    /// `weight` > 0 (0 adds nothing).
+    /// Adds the run's columns: every vertex's geometric quadric, plus every face's terms in
+    /// its unconstrained corners. `weight` > 0 (0 adds nothing).
     template <tri_mesh_like Mesh>
-    void attach(Mesh& m, const attribute_transfer& t, double weight) {
+    void attach(Mesh& m, const attribute_transfer& t, double weight,
+                vertex_attribute<quadric> geometric) {
         const std::vector<double> range = t.component_ranges(m);
         vec3 lo{1e300, 1e300, 1e300}, hi = -lo;
         m.for_each_vertex([&](const typename Mesh::tuple& v) {
@@ -94,7 +96,7 @@ public:
             // A constant adds no error. Normals follow the shape, which the geometric quadric
             // already measures; weighed as appearance they made QSlim spend the faces on
             // curvature (armadillo to 10%, weight 0.03: 1.7x the distance to the input).
-            if (!(range[k] > 0) || !(weight > 0) || t.component_attribute(k) == "normal") continue;
+            if (!(range[k] > 0) || !(weight > 0) || is_normal(t.component_attribute(k))) continue;
             component_.push_back(k);
             scale_.push_back(weight * diagonal / range[k]);
         }
@@ -104,6 +106,8 @@ public:
             more_.push_back(m.template add_vertex_attribute<attribute_gradients>(
                 "qslim_attribute_gradients_" + std::to_string(j)));
         auto terms = m.attribute(terms_);
+        const auto q = m.attribute(geometric);
+        for (index_t v = 0; v < m.vertex_slots(); ++v) terms.raw(v).q = q[v];
         m.for_each_face([&](const typename Mesh::tuple& f) {
             const auto& fv = m.face_vertices(f.fid);
             bool loose[3]; // unconstrained corners
@@ -147,21 +151,30 @@ public:
         *this = attribute_quadric{};
     }
 
-    /// min_s E of the merged vertex of a and b, a quadric in its position.
+    /// min_s E of the merged vertex of a and b (the geometric error included), a quadric in
+    /// its position.
     template <tri_mesh_like Mesh>
     quadric reduced(const Mesh& m, index_t a, index_t b) const {
         const auto terms = m.attribute(terms_);
         quadric r = terms[a].q + terms[b].q;
         const double w = terms[a].w + terms[b].w;
         if (!(w > 0)) return r;
+        // The outer products summed in scalars, not added to r one quadric at a time.
+        double x00 = 0, x01 = 0, x02 = 0, x11 = 0, x12 = 0, x22 = 0, y0 = 0, y1 = 0, y2 = 0, z = 0;
         for_each_pair(m, a, b, [&](std::size_t, const attribute_gradient& h) {
-            r += quadric::plane({h[0], h[1], h[2]}, h[3], -1.0 / w);
+            x00 += h[0] * h[0], x01 += h[0] * h[1], x02 += h[0] * h[2], x11 += h[1] * h[1];
+            x12 += h[1] * h[2], x22 += h[2] * h[2];
+            y0 += h[0] * h[3], y1 += h[1] * h[3], y2 += h[2] * h[3], z += h[3] * h[3];
         });
+        const double k = 1 / w;
+        r.a00 -= k * x00, r.a01 -= k * x01, r.a02 -= k * x02, r.a11 -= k * x11;
+        r.a12 -= k * x12, r.a22 -= k * x22;
+        r.b0 -= k * y0, r.b1 -= k * y1, r.b2 -= k * y2, r.c -= k * z;
         return r;
     }
 
-    /// E of the merged vertex of a and b at p with the values a has in face f (a collapse
-    /// into a constrained a: it keeps its place and those values).
+    /// E of the merged vertex of a and b (the geometric error included) at p with the values
+    /// a has in face f (a collapse into a constrained a: it keeps its place and those values).
     template <tri_mesh_like Mesh>
     double error_at(const Mesh& m, const attribute_transfer& t, index_t f, index_t a, index_t b,
                     const vec3& p) const {
@@ -175,12 +188,17 @@ public:
         return std::max(e, 0.0); // rounding can dip below zero
     }
 
-    /// The merged terms of a collapse of b into a; none for a constrained a.
+    /// The merged terms of a collapse of b into a, whose geometric quadrics add up to
+    /// `geometric`: only that for a constrained a.
     template <tri_mesh_like Mesh>
     void merge(const Mesh& m, const attribute_transfer& t, index_t a, index_t b,
-               merged& out) const {
-        out.write = !t.constrained(m, a);
-        if (!out.write) return;
+               const quadric& geometric, merged& out) const {
+        out.count = 0;
+        if (t.constrained(m, a)) {
+            out.q = geometric, out.w = 0;
+            return;
+        }
+        out.count = static_cast<std::uint32_t>(scale_.size());
         const auto terms = m.attribute(terms_);
         out.q = terms[a].q + terms[b].q;
         out.w = terms[a].w + terms[b].w;
@@ -190,10 +208,10 @@ public:
     /// Writes the merged terms at the survivor a.
     template <tri_mesh_like Mesh>
     void write(Mesh& m, index_t a, const merged& in) const {
-        if (!in.write) return;
         attribute_terms x{in.q, in.w};
-        for (std::size_t j = 0; j < std::min(block, scale_.size()); ++j) x.g[j] = in.g[j];
+        for (std::size_t j = 0; j < std::min<std::size_t>(block, in.count); ++j) x.g[j] = in.g[j];
         m.attribute(terms_).set(a, x);
+        if (in.count == 0) return; // a constrained survivor's other gradients stay zero
         for (std::size_t k = 0; k < more_.size(); ++k) {
             attribute_gradients y;
             for (std::size_t j = block * (k + 1), i = 0; i < block && j < scale_.size(); ++i, ++j)
@@ -204,6 +222,12 @@ public:
 
 private:
     static constexpr std::size_t block = attribute_terms::inline_components;
+
+    /// Normals as the readers name them: OBJ's vn and OFF's N, and PLY's properties, each
+    /// an attribute of its own.
+    static bool is_normal(const std::string& name) {
+        return name == "normal" || name == "nx" || name == "ny" || name == "nz";
+    }
 
     /// fn(j, gradient j of a + gradient j of b) for every component j.
     template <class Mesh, class Fn>

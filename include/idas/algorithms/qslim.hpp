@@ -80,7 +80,7 @@ struct qslim_spec : collapse_schedule {
                 q.raw(a) += kb, q.raw(b) += kb;
             }
         });
-        if (transfer && attribute_weight > 0) appearance.attach(m, *transfer, attribute_weight);
+        if (transfer && attribute_weight > 0) appearance.attach(m, *transfer, attribute_weight, Q);
     }
 
     /// The quadrics are the run's own: removed when it ends.
@@ -103,23 +103,22 @@ struct qslim_spec : collapse_schedule {
         return best;
     }
 
-    /// The collapse of t's edge into t.vid, with the attributes' error when they weigh.
+    /// The collapse of t's edge into t.vid, with the attributes' error when they weigh
+    /// (then `merged` is left for `before` to fill: the terms hold the geometry too, so a
+    /// priority reads them alone).
     template <class Mesh>
     placement place(const Mesh& m, const typename Mesh::tuple& t) const {
         const auto [a, b] = m.edge_vertices(t);
         if (!appearance.active()) return place(m, a, b);
-        const auto q = m.attribute(Q);
-        const quadric geometry = q[a] + q[b];
         if (transfer->constrained(m, a)) { // it stays, with its values of t's face
             const vec3& p = m.position(a);
-            return {p, geometry.error(p) + appearance.error_at(m, *transfer, t.fid, a, b, p),
-                    geometry};
+            return {p, appearance.error_at(m, *transfer, t.fid, a, b, p), {}};
         }
-        const quadric sum = geometry + appearance.reduced(m, a, b);
+        const quadric sum = appearance.reduced(m, a, b);
         const vec3 p = sum.minimizer_near((m.position(a) + m.position(b)) * 0.5);
-        placement best{p, sum.error(p), geometry};
+        placement best{p, sum.error(p), {}};
         for (const vec3& x : {m.position(a), m.position(b)}) // guards against rounding
-            if (const double e = sum.error(x); e < best.cost) best = {x, e, geometry};
+            if (const double e = sum.error(x); e < best.cost) best = {x, e, {}};
         return best;
     }
 
@@ -141,7 +140,9 @@ struct qslim_spec : collapse_schedule {
         c->p = place(m, t);
         if (appearance.active()) {
             const auto [a, b] = m.edge_vertices(t);
-            appearance.merge(m, *transfer, a, b, c->terms);
+            const auto q = m.attribute(Q);
+            c->p.merged = q[a] + q[b];
+            appearance.merge(m, *transfer, a, b, c->p.merged, c->terms);
         }
         if (transfer && !transfer->collapse_before(m, t, c->p.position, c->carried)) c.reset();
         return c;
