@@ -7,7 +7,7 @@
 //                [--sizing VALUE|FILE.msh] [--stop-energy 10] [--max-iterations 80]
 //                [--keep-outside] [--no-simplify] [--boundary SURFACE]
 //                [--stage insertion|optimize] [--msh-version 2.2|4.1] [--threads T]
-//                [--json] [--ascii]
+//                [--deterministic] [--json] [--ascii]
 //
 // OUT is MSH (2.2 by default, or 4.1) with physical tag 1 inside (winding number above
 // 1/2 at its centroid) and 2 outside, or VTU with the cell fields "region" (the same 1
@@ -72,6 +72,8 @@ CLI::App* add_tetmesh_command(CLI::App& app, tetmesh_arguments& a,
     c->add_option("--threads", a.options.threads, "worker threads")
         ->check(unsigned_check)
         ->capture_default_str();
+    c->add_flag("--deterministic", a.options.deterministic,
+                "the same mesh at any thread count (deterministic rounds: slower)");
     c->add_flag("--json", a.as_json, "print one JSON object instead of text");
     c->add_flag("--ascii", a.ascii, "write MSH, VTU and the boundary as text instead of binary");
     return c;
@@ -125,6 +127,7 @@ json insertion_json(const tetmesh_arguments& a, const idas::io::surface& s,
     j["epsilon"] = r.epsilon;
     j["edge_length"] = r.edge_length;
     j["threads"] = a.options.threads;
+    j["deterministic"] = a.options.deterministic;
     j["seconds"] = {{"cleaning", r.seconds_cleaning}, {"simplification", r.seconds_simplification},
                     {"delaunay", r.seconds_delaunay}, {"insertion", r.seconds_insertion},
                     {"rounding", r.seconds_rounding}, {"checks", r.seconds_check}};

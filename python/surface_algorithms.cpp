@@ -34,14 +34,14 @@ py::tuple decimate(const py::object& vertices, const py::object& faces,
                    std::optional<std::int64_t> target_faces, const std::string& algorithm,
                    unsigned threads, bool deterministic, bool keep_boundary,
                    std::optional<double> feature_angle, bool allow_self_intersections,
-                   const std::string& backend) {
+                   const std::string& backend, std::optional<double> attribute_weight) {
     if (ratio.has_value() == target_faces.has_value())
         refuse("give exactly one of ratio or target_faces");
     tool::decimate_options o;
     o.algorithm = algorithm, o.ratio = ratio, o.faces = target_faces.value_or(-1);
     o.threads = threads, o.deterministic = deterministic, o.keep_boundary = keep_boundary;
     o.feature_angle = feature_angle, o.allow_self_intersections = allow_self_intersections;
-    o.backend = backend;
+    o.backend = backend, o.attribute_weight = attribute_weight;
     tool::check_decimate_options(o);
     return edit_surface(
         vertices, faces, attributes, threads, backend,
@@ -80,15 +80,17 @@ void bind_surface_algorithms(py::module_& m) {
           py::arg("threads") = d.threads, py::arg("deterministic") = d.deterministic,
           py::arg("keep_boundary") = d.keep_boundary, py::arg("feature_angle") = py::none(),
           py::arg("allow_self_intersections") = d.allow_self_intersections,
-          py::arg("backend") = d.backend,
+          py::arg("backend") = d.backend, py::arg("attribute_weight") = py::none(),
           R"(Decimates a surface as `idas decimate`: returns (vertices, faces, attributes).
 
 Give exactly one of ratio (of the input's faces, in (0, 1]) and target_faces.
 algorithm: "qslim" or "shortest-edge"; threads: worker threads (1 to 1024);
 deterministic: the same mesh at every thread count; keep_boundary, feature_angle (degrees):
 vertices that never move nor vanish; allow_self_intersections: do not refuse collapses that
-make faces meet; backend: "indexed" or "corner-table". Attributes (see idas.read) are
-carried through every collapse. The GIL is released while it runs.)");
+make faces meet; backend: "indexed" or "corner-table"; attribute_weight (QSlim): how much
+texture coordinates, colours and other attributes weigh against the shape (None: the
+tool's default, 0: the shape alone). Attributes (see idas.read) are carried through every
+collapse. The GIL is released while it runs.)");
     const tool::remesh_options r;
     m.def("remesh", &remesh, py::arg("vertices"), py::arg("faces"),
           py::arg("attributes") = py::none(), py::kw_only(), py::arg("edge_length") = r.edge_length,

@@ -39,11 +39,12 @@ py::tuple tetmesh(const py::object& vertices, const py::object& faces, double ep
                   double edge_length, bool absolute,
                   std::optional<std::variant<double, std::filesystem::path>> sizing,
                   double stop_energy, unsigned max_iterations, bool keep_outside, bool simplify,
-                  unsigned threads) {
+                  unsigned threads, bool deterministic) {
     tool::tetmesh_options o;
     o.epsilon = epsilon, o.edge_length = edge_length, o.absolute = absolute;
     o.stop_energy = stop_energy, o.max_iterations = max_iterations;
     o.keep_outside = keep_outside, o.no_simplify = !simplify, o.threads = threads;
+    o.deterministic = deterministic;
     if (sizing) {
         // A number goes as its shortest round-trip text, which the tool parses back exactly.
         if (const double* x = std::get_if<double>(&*sizing))
@@ -85,15 +86,15 @@ released while it runs.)");
           py::arg("absolute") = t.absolute, py::arg("sizing") = py::none(),
           py::arg("stop_energy") = t.stop_energy, py::arg("max_iterations") = t.max_iterations,
           py::arg("keep_outside") = t.keep_outside, py::arg("simplify") = !t.no_simplify,
-          py::arg("threads") = t.threads,
+          py::arg("threads") = t.threads, py::arg("deterministic") = t.deterministic,
           R"(Tet mesh of a triangle soup as `idas tetmesh`: returns (vertices, tets,
 attributes), attributes["tag"] 1 inside and 2 outside.
 
 epsilon: envelope half-width and edge_length: target length, both relative to the
 diagonal unless absolute=True; sizing: a constant length or a .msh sizing mesh;
 stop_energy, max_iterations: when the optimization stops; keep_outside: every tet, not
-only the inside; simplify=False inserts every input triangle as it is. The GIL is released
-while it runs.)");
+only the inside; simplify=False inserts every input triangle as it is; deterministic=True:
+the same mesh at any thread count. The GIL is released while it runs.)");
 }
 
 } // namespace idas::python

@@ -733,6 +733,11 @@ run info "$TMP/hgq.msh" --json
 expect_rc "tetmesh optimized output reads back" 0
 run tetmesh "$DATA/hour_glass.off" "$TMP/hgq2.msh" --json
 if cmp -s "$TMP/hgq.msh" "$TMP/hgq2.msh"; then ok; else fail "tetmesh: two runs on one thread give different files"; fi
+run tetmesh "$DATA/hour_glass.off" "$TMP/hgd1.msh" --deterministic --json
+expect_rc "tetmesh --deterministic" 0
+expect_field "tetmesh --deterministic" "d['deterministic'] and d['amips']['max'] <= 10 and d['flat_or_inverted_tets'] == 0" True
+run tetmesh "$DATA/hour_glass.off" "$TMP/hgd3.msh" --deterministic --threads 3 --json
+if cmp -s "$TMP/hgd1.msh" "$TMP/hgd3.msh"; then ok; else fail "tetmesh --deterministic: 1 and 3 threads give different files"; fi
 run tetmesh "$DATA/hour_glass.off" "$TMP/hgq_all.msh" --keep-outside --ascii --threads 2 --json
 expect_rc "tetmesh optimize --keep-outside on 2 threads" 0
 expect_field "tetmesh --keep-outside" "d['tets'] > d['inside_tets'] > 0" True
@@ -843,6 +848,15 @@ if ! grep -q '^vt ' "$TMP/blub_bare.obj"; then ok; else fail "convert --drop-att
 run convert "$DATA/blub.obj" "$TMP/blub.off"
 expect_rc "convert textured OBJ to OFF" 0
 if grep -q "warning: .*blub.off cannot store these attributes, not written: uv (corner)" "$TMP/err"; then ok; else fail "convert to OFF: no warning about the lost uv: $(head -c 300 "$TMP/err")"; fi
+# A coloured OFF keeps its colours through PLY; PLY lists idas cannot hold are named.
+printf 'COFF\n3 1\n0 0 0 255 0 0\n1 0 0 0 255 0\n0 1 0 0 0 255\n3 0 1 2\n' > "$TMP/coloured.off"
+run convert "$TMP/coloured.off" "$TMP/coloured.ply" --ascii
+expect_rc "convert COFF to PLY" 0
+if grep -q '^property uchar red$' "$TMP/coloured.ply" && grep -q '^0 0 0 255 0 0$' "$TMP/coloured.ply"; then ok; else fail "convert COFF to PLY: colours lost: $(head -c 300 "$TMP/coloured.ply")"; fi
+printf 'ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nproperty list uchar int flags\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2 1 7\n' > "$TMP/lists.ply"
+run convert "$TMP/lists.ply" "$TMP/lists_out.ply"
+expect_rc "convert PLY with a list property" 0
+if grep -q "warning: .*lists.ply: not kept (idas cannot hold them): flags (face list property)" "$TMP/err"; then ok; else fail "convert PLY: no warning about the skipped list: $(head -c 300 "$TMP/err")"; fi
 run decimate "$DATA/blub.obj" "$TMP/blub_dec.obj" --ratio 0.1 --json
 expect_rc "decimate textured" 0
 expect_field "decimate textured: uv carried" "[a['name'] for a in d['attributes']]" "['uv']"

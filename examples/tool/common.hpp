@@ -146,12 +146,19 @@ inline std::string dropped_faces_warning(const std::string& path, std::size_t dr
            "into a degenerate face)";
 }
 
-/// read_usable, with a warning on stderr for dropped STL facets.
+/// read_usable, with warnings on stderr for dropped STL facets and for what the reader
+/// read past (PLY lists and elements it cannot keep).
 inline idas::io::surface load(const std::string& path, bool attributes = true) {
     idas::io::surface s = read_usable(path, attributes);
     if (s.dropped_faces > 0)
         std::fprintf(stderr, "idas: warning: %s\n",
                      dropped_faces_warning(path, s.dropped_faces).c_str());
+    if (!s.skipped.empty()) {
+        std::string names;
+        for (const auto& n : s.skipped) names += (names.empty() ? "" : ", ") + n;
+        std::fprintf(stderr, "idas: warning: %s: not kept (idas cannot hold them): %s\n",
+                     path.c_str(), names.c_str());
+    }
     return s;
 }
 

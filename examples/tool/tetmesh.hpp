@@ -27,6 +27,7 @@ struct tetmesh_options {
     double epsilon = 1e-3, edge_length = 1.0 / 20.0, stop_energy = 10;
     unsigned max_iterations = 80;
     bool absolute = false, keep_outside = false, no_simplify = false;
+    bool deterministic = false; // lock::deterministic_rounds: the same mesh at any thread count
     unsigned threads = 1;
 };
 
@@ -105,6 +106,7 @@ inline tetmesh_setup prepare_tetmesh(const tetmesh_options& a, const idas::io::s
     o.epsilon = a.epsilon, o.edge_length = a.edge_length, o.absolute = a.absolute;
     if (constant_sizing) o.edge_length = *constant_sizing;
     o.simplify = !a.no_simplify;
+    o.deterministic = a.deterministic;
     if (!a.sizing.empty() && !constant_sizing) {
         // Outside the sizing mesh: the run's own edge length, which needs the diagonal.
         double outside = a.edge_length;

@@ -82,6 +82,33 @@ def test_tetmesh_as_cli(data, cli, tmp_path):
     assert expected["tets"] == len(tt) and expected["inverted_tets"] == 0
 
 
+def test_tetmesh_deterministic_two_threads_as_cli(data, cli, tmp_path):
+    cli("tetmesh", data / "sphere.obj", tmp_path / "cli.msh", "--max-iterations", 2,
+        "--deterministic")
+    v, f, _ = idas.read(data / "sphere.obj")
+    tv, tt, ta = idas.tetmesh(v, f, max_iterations=2, deterministic=True, threads=2)
+    idas.write(tmp_path / "module.msh", tv, tt, ta, msh_version="2.2")
+    assert same_bytes(tmp_path / "cli.msh", tmp_path / "module.msh")
+
+
+def test_decimate_attribute_weight_as_cli(data, cli, tmp_path):
+    cli("decimate", data / "blub.obj", tmp_path / "cli.obj", "--ratio", 0.1,
+        "--attribute-weight", 0.5)
+    v, f, a = idas.read(data / "blub.obj")
+    dv, df, da = idas.decimate(v, f, a, ratio=0.1, attribute_weight=0.5)
+    idas.write(tmp_path / "module.obj", dv, df, da)
+    assert same_bytes(tmp_path / "cli.obj", tmp_path / "module.obj")
+    # The weight changes the result, and a bad one is refused like the tool's.
+    idas.write(tmp_path / "zero.obj", *idas.decimate(v, f, a, ratio=0.1, attribute_weight=0))
+    assert not same_bytes(tmp_path / "zero.obj", tmp_path / "module.obj")
+    try:
+        idas.decimate(v, f, a, ratio=0.1, attribute_weight=-1)
+    except idas.InputError as e:
+        assert "attribute_weight" in str(e)
+    else:
+        raise AssertionError("a negative attribute_weight was accepted")
+
+
 def test_info_as_cli(data, cli):
     expected = json.loads(cli("info", data / "bunny.off", "--json", "--self-intersections"))
     del expected["seconds"], expected["phases"]
