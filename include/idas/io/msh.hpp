@@ -702,7 +702,8 @@ private:
         resolve_cells(tets_, 4, out.tets);
         resolve_cells(triangles_, 3, out.triangles);
         // Values per tag, spread over what the tags name; NaN for what has no value.
-        const auto spread = [&](raw_field& f, std::size_t items, auto&& index_of) {
+        // `missing` hears of a tag that names nothing.
+        const auto spread = [&](raw_field& f, std::size_t items, auto&& index_of, auto&& missing) {
             field out_field;
             out_field.name = std::move(f.name);
             out_field.components = f.components;
@@ -710,19 +711,21 @@ private:
             out_field.values.assign(items * c, std::numeric_limits<double>::quiet_NaN());
             for (std::size_t i = 0; i < f.tags.size(); ++i) {
                 const index_t v = index_of(f.tags[i]);
-                if (v == invalid_index) continue;
+                if (v == invalid_index) {
+                    missing(out_field.name, f.tags[i]);
+                    continue;
+                }
                 std::copy_n(f.values.begin() + std::ptrdiff_t(i * c), c,
                             out_field.values.begin() + std::ptrdiff_t(std::size_t(v) * c));
             }
             return out_field;
         };
-        for (auto& f : fields_) {
-            for (std::uint64_t tag : f.tags)
-                if (lookup(tag) == invalid_index)
-                    fail(source_, "$NodeData \"" + f.name + "\" gives a value for node " +
+        for (auto& f : fields_)
+            out.vertex_fields.push_back(spread(
+                f, vertices_.size(), lookup, [&](const std::string& name, std::uint64_t tag) {
+                    fail(source_, "$NodeData \"" + name + "\" gives a value for node " +
                                       std::to_string(tag) + ", which is not defined");
-            out.vertex_fields.push_back(spread(f, vertices_.size(), lookup));
-        }
+                }));
         // $ElementData keeps the tets' values; values for other elements (triangles, lines)
         // are left out.
         if (!element_fields_.empty()) {
@@ -737,7 +740,8 @@ private:
                 return it != by_number.end() && it->first == number ? it->second : invalid_index;
             };
             for (auto& f : element_fields_)
-                out.tet_fields.push_back(spread(f, out.tets.size(), tet_of));
+                out.tet_fields.push_back(
+                    spread(f, out.tets.size(), tet_of, [](const std::string&, std::uint64_t) {}));
         }
         // Physical tags become tags when every element has a positive one that fits an int
         // (what the writers store) and they are not all 1; otherwise none are kept.

@@ -65,38 +65,31 @@ inline void check_writable(const volume& v, std::string_view target) {
     for (std::size_t i = 0; i < v.vertices.size(); ++i)
         if (!is_finite(v.vertices[i]))
             fail(target, "vertex " + std::to_string(i) + " has a non-finite coordinate");
-    for (std::size_t t = 0; t < v.tets.size(); ++t) {
-        const tet_indices& tv = v.tets[t];
-        for (int i = 0; i < 4; ++i) {
-            if (tv[i] >= v.vertices.size())
-                fail(target, "tet " + std::to_string(t) + " references vertex " +
-                                 std::to_string(tv[i]) + " but there are only " +
-                                 std::to_string(v.vertices.size()) + " vertices");
-            for (int j = i + 1; j < 4; ++j)
-                if (tv[i] == tv[j])
-                    fail(target, "tet " + std::to_string(t) + " is degenerate (repeats a vertex)");
+    // Tets and the triangles stored with them: indices in range, no vertex twice, one
+    // positive tag each (or none).
+    const auto check_cells = [&](const auto& cells, const std::vector<int>& tags,
+                                 const std::string& what) {
+        for (std::size_t t = 0; t < cells.size(); ++t) {
+            const auto& c = cells[t];
+            for (std::size_t i = 0; i < c.size(); ++i) {
+                if (c[i] >= v.vertices.size())
+                    fail(target, what + " " + std::to_string(t) + " references vertex " +
+                                     std::to_string(c[i]) + " but there are only " +
+                                     std::to_string(v.vertices.size()) + " vertices");
+                for (std::size_t j = i + 1; j < c.size(); ++j)
+                    if (c[i] == c[j])
+                        fail(target,
+                             what + " " + std::to_string(t) + " is degenerate (repeats a vertex)");
+            }
         }
-    }
-    if (!v.tags.empty() && v.tags.size() != v.tets.size())
-        fail(target, "there are " + std::to_string(v.tags.size()) + " tet tags for " +
-                         std::to_string(v.tets.size()) + " tets");
-    for (int tag : v.tags)
-        if (tag <= 0) fail(target, "tet tags must be positive (MSH physical tags)");
-    for (std::size_t t = 0; t < v.triangles.size(); ++t) {
-        const tri_indices& tv = v.triangles[t];
-        for (index_t x : tv)
-            if (x >= v.vertices.size())
-                fail(target, "triangle " + std::to_string(t) + " references vertex " +
-                                 std::to_string(x) + " but there are only " +
-                                 std::to_string(v.vertices.size()) + " vertices");
-        if (tv[0] == tv[1] || tv[1] == tv[2] || tv[0] == tv[2])
-            fail(target, "triangle " + std::to_string(t) + " is degenerate (repeats a vertex)");
-    }
-    if (!v.triangle_tags.empty() && v.triangle_tags.size() != v.triangles.size())
-        fail(target, "there are " + std::to_string(v.triangle_tags.size()) + " triangle tags for " +
-                         std::to_string(v.triangles.size()) + " triangles");
-    for (int tag : v.triangle_tags)
-        if (tag <= 0) fail(target, "triangle tags must be positive (MSH physical tags)");
+        if (!tags.empty() && tags.size() != cells.size())
+            fail(target, "there are " + std::to_string(tags.size()) + " " + what + " tags for " +
+                             std::to_string(cells.size()) + " " + what + "s");
+        for (int tag : tags)
+            if (tag <= 0) fail(target, what + " tags must be positive (MSH physical tags)");
+    };
+    check_cells(v.tets, v.tags, "tet");
+    check_cells(v.triangles, v.triangle_tags, "triangle");
     const auto check_fields = [&](const std::vector<field>& fields, std::size_t items,
                                   const char* what, const char* plural) {
         for (const auto& f : fields) {
