@@ -33,8 +33,9 @@
 // The target is round(ratio * input faces) faces. --shuffle SEED (not 0) renumbers the
 // input's vertices and faces at random and rotates each face's corners: the same surface,
 // other tie-breaks, to see how much a serial run's distances depend on the input's order.
-// --serial-tail N (experiment) leaves a parallel run's final serial pass target + N faces
-// per part instead of the library's 512 (idas peers on vertex_try_lock only).
+// --serial-tail N (experiment) leaves a parallel run's final serial pass F * target + N
+// faces per part instead of the library's target / 4 + 512 per part (idas peers on
+// vertex_try_lock only); --serial-tail-share F sets F (default the library's 1/4).
 // --self-intersections: the idas peers refuse collapses that make faces meet (the index is
 // built inside the timed call). Every peer reports `self_intersections`, the face pairs of
 // its output that meet (exact).
@@ -168,9 +169,13 @@ surface with_attributes(const surface& in) {
 }
 
 /// --serial-tail N (an experiment, not a library setting): a parallel run leaves the final
-/// serial pass `target + N * parts` faces instead of the library's
+/// serial pass `share * target + N * parts` faces instead of the library's
 /// face_target::tail_faces_per_part (512) per part. Negative: the library's own.
 std::int64_t serial_tail_per_part = -1;
+/// --serial-tail-share F (with --serial-tail): the share of the target the serial pass gets
+/// besides the faces per part.
+double serial_tail_share =
+    1.0 / double(idas::algorithms::face_target::tail_share_of_target_inverse);
 
 /// --self-intersections: the idas peers refuse collapses that make faces meet (the
 /// no_self_intersection invariant; its index is built inside the timed run).
@@ -182,9 +187,9 @@ struct serial_tail_override : Base {
     void prepare(Mesh& m, const idas::exec_options& o) {
         Base::prepare(m, o);
         if (this->serial_tail > 0)
-            this->serial_tail = this->target_faces + serial_tail_per_part *
-                                                         std::int64_t(o.threads) *
-                                                         std::max(1u, o.parts_per_thread);
+            this->serial_tail =
+                std::int64_t(serial_tail_share * double(this->target_faces)) +
+                serial_tail_per_part * std::int64_t(o.threads) * std::max(1u, o.parts_per_thread);
     }
 };
 
@@ -388,7 +393,7 @@ surface shuffled(const surface& s, unsigned seed) {
                  "idas-qslim-det|idas-sec-attr|idas-qslim-attr|cgal-gh|openmesh-quadric\n"
                  "         [--input x1|x4|x16|bunny|box] [--ratio R] [--threads T] [--samples N]"
                  " [--data FILE.obj] [--shuffle SEED] [--serial-tail N]\n"
-                 "         [--self-intersections]\n",
+                 "         [--serial-tail-share F] [--self-intersections]\n",
                  message.c_str());
     std::exit(2);
 }
@@ -419,6 +424,8 @@ options parse(int argc, char** argv) {
             o.shuffle = static_cast<unsigned>(std::stoul(v));
         else if (a == "--serial-tail")
             o.serial_tail = std::stoll(v);
+        else if (a == "--serial-tail-share")
+            serial_tail_share = std::stod(v);
         else
             usage("unknown option " + a);
     }
@@ -525,14 +532,16 @@ int run(const options& o) {
         "\"hausdorff_out_in\":%.6g,\"hausdorff_symmetric\":%.6g,\"hausdorff_samples_per_area\":%g,"
         "\"seconds_hausdorff\":%.3f,\"rss_loaded_mb\":%.1f,\"peak_rss_mb\":%.1f,"
         "\"peak_rss_delta_mb\":%.1f,\"peak_reset\":%s,\"manifold\":%s,\"euler\":%ld,"
-        "\"shuffle\":%u,\"serial_tail_per_part\":%lld,\"refuse_self_intersections\":%s,"
+        "\"shuffle\":%u,\"serial_tail_per_part\":%lld,\"serial_tail_share\":%g,"
+        "\"refuse_self_intersections\":%s,"
         "\"self_intersections\":%zu%s}\n",
         o.peer.c_str(), algorithm.c_str(), o.input.c_str(), (long long)input_faces, o.ratio,
         (long long)target, o.threads, r.seconds, (long long)output_faces, r.output.vertices.size(),
         double(output_faces - target) / double(target), h_out_in, std::max(h_out_in, h_in_out),
         o.samples, h_seconds, rss_loaded, peak, peak - rss_loaded, peak_reset ? "true" : "false",
         topo.editable() ? "true" : "false", static_cast<long>(topo.euler_characteristic), o.shuffle,
-        o.serial_tail, refuse_self_intersections ? "true" : "false", crossings, r.extra.c_str());
+        o.serial_tail, serial_tail_share, refuse_self_intersections ? "true" : "false", crossings,
+        r.extra.c_str());
     return 0;
 }
 

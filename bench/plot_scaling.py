@@ -66,10 +66,12 @@ def amdahl(ta, a, tb, b, at):
 
 def prediction(runs_by_threads):
     """(algorithm, total) seconds predicted at PREDICT_AT threads, phase by phase."""
-    counts = sorted(runs_by_threads)
+    # The two largest thread counts measured below it: their serial fractions are the ones
+    # that still matter at more threads.
+    counts = sorted(t for t in runs_by_threads if t < PREDICT_AT)
     if len(counts) < 2:
         return None
-    ta, tb = counts[0], counts[1]
+    ta, tb = counts[-2], counts[-1]
     pa, pb = runs_by_threads[ta].get("phases"), runs_by_threads[tb].get("phases")
     if not pa or not pb:
         return None
@@ -132,8 +134,8 @@ def markdown(best):
     out.append("")
 
     out.append(f"Predicted at {PREDICT_AT} threads by Amdahl's law, each phase's serial fraction "
-               f"fitted from the two smallest thread counts above (on a noisy 2-core machine a "
-               f"rough guide; the 16-core run replaces it):")
+               f"fitted from the two largest thread counts below {PREDICT_AT} above (a guide "
+               f"where no {PREDICT_AT}-thread run is listed; a measured run replaces it):")
     out.append("")
     out.append(f"| case | algorithm s at 1 | predicted algorithm s at {PREDICT_AT} | speedup "
                f"| predicted total s at {PREDICT_AT} | total / algorithm |")
@@ -148,7 +150,10 @@ def markdown(best):
                    f"| {p[1] / p[0]:.2f} |")
     out.append("")
 
-    top = threads[-1]
+    # The most threads at which both the harmonic run and CGAL's Delaunay were measured.
+    both = [t for t in threads
+            if ("cgal-delaunay", t) in best and ("harmonic-complete", t) in best]
+    top = both[-1] if both else threads[-1]
     cg1, cgt = best.get(("cgal-delaunay", 1)), best.get(("cgal-delaunay", top))
     hc1, hct = best.get(("harmonic-complete", 1)), best.get(("harmonic-complete", top))
     if cg1 and hc1 and cgt and hct:

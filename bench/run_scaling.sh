@@ -2,7 +2,7 @@
 # Scaling end to end (issue 20): what a user waits for at 1, 2, 4, ... threads.
 #
 #   bench/run_scaling.sh [--threads "1 2 4 8 16"] [--points N] [--levels L]
-#                        [--bin DIR] [--repeats R] [--out FILE]
+#                        [--bin DIR] [--repeats R] [--out FILE] [--no-plot]
 #
 # Runs the `idas` tool itself, one process per case, each with --json, so every figure is
 # a whole command (reading, checking and writing included) with its per-phase wall times:
@@ -25,6 +25,8 @@
 # bench/plot_scaling.py writes the "## Scaling" section of bench/RESULTS.md (speedups of
 # algorithm and whole command, per-phase times, and the 16-thread figures Amdahl's law
 # predicts from the two smallest thread counts, per phase) and bench/scaling.png.
+# --no-plot (a machine without matplotlib) writes the plot's settings beside the results
+# instead, as FILE.env: `set -a; . FILE.env; bench/plot_scaling.py --results FILE ...` there.
 set -euo pipefail
 
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -36,6 +38,7 @@ levels=2
 bin=""
 repeats=1
 out=""
+plot=1
 while [[ $# -gt 0 ]]; do
     case "$1" in
     --threads) threads="$2"; shift 2 ;;
@@ -44,8 +47,9 @@ while [[ $# -gt 0 ]]; do
     --bin) bin="$2"; shift 2 ;;
     --repeats) repeats="$2"; shift 2 ;;
     --out) out="$2"; shift 2 ;;
+    --no-plot) plot=0; shift ;;
     *)
-        echo "usage: bench/run_scaling.sh [--threads \"1 2 4\"] [--points N] [--levels L] [--bin DIR] [--repeats R] [--out FILE]" >&2
+        echo "usage: bench/run_scaling.sh [--threads \"1 2 4\"] [--points N] [--levels L] [--bin DIR] [--repeats R] [--out FILE] [--no-plot]" >&2
         exit 2
         ;;
     esac
@@ -105,11 +109,18 @@ for ((r = 0; r < repeats; ++r)); do
     done
 done
 
+settings=(
+    "SCALING_DATE=$date_utc" "SCALING_COMMAND=$command_line" "SCALING_LOAD=$load_before"
+    "SCALING_MINUTES=$(((SECONDS - started + 59) / 60))" "SCALING_CORES=$cores"
+    "SCALING_CPU=$(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2- | sed 's/^ *//')"
+    "SCALING_INPUT=$(basename "$input"): $(grep -c '^f ' "$input") faces; $points Gaussian points"
+)
+if ((!plot)); then
+    printf '%q\n' "${settings[@]}" >"${results%.jsonl}.env"
+    echo "results: $results; settings for bench/plot_scaling.py: ${results%.jsonl}.env" >&2
+    exit 0
+fi
 python=/usr/bin/python3 # Debian's matplotlib belongs to the system interpreter
 [[ -x "$python" ]] || python=python3
-SCALING_DATE="$date_utc" SCALING_COMMAND="$command_line" SCALING_LOAD="$load_before" \
-    SCALING_MINUTES="$(((SECONDS - started + 59) / 60))" SCALING_CORES="$cores" \
-    SCALING_CPU="$(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2- | sed 's/^ *//')" \
-    SCALING_INPUT="$(basename "$input"): $(grep -c '^f ' "$input") faces; $points Gaussian points" \
-    "$python" "$root/bench/plot_scaling.py" --results "$results" --png "$root/bench/scaling.png" \
-    --markdown "$root/bench/RESULTS.md"
+env "${settings[@]}" "$python" "$root/bench/plot_scaling.py" --results "$results" \
+    --png "$root/bench/scaling.png" --markdown "$root/bench/RESULTS.md"

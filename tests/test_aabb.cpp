@@ -124,7 +124,7 @@ TEST_CASE("aabb: faces within a radius") {
     }
 }
 
-TEST_CASE("aabb: triangles are stored as given; surface points have distance zero") {
+TEST_CASE("aabb: triangles are stored as given and surface points have distance zero") {
     const soup s = load_soup("bunny.off");
     const triangle_aabb_tree tree(s.V, s.F);
     for (index_t f = 0; f < s.F.size(); f += 37) {

@@ -36,6 +36,10 @@ struct misspelled_invariants {
     using operations = op_list<op::split_edge>;
     auto invariant() const { return invariant_set<>{}; }
 };
+struct quiescent_without_progress {
+    using operations = op_list<op::split_edge>;
+    void quiescent(tri_mesh<>&) {}
+};
 struct no_operations {};
 
 // What the executor would have skipped in silence is not a spec.
@@ -44,6 +48,7 @@ static_assert(!spec_for<after_for_unlisted_operation, tri_mesh<>>);
 static_assert(!spec_for<cache_not_taken, tri_mesh<>>);
 static_assert(!spec_for<stop_without_progress, tri_mesh<>>);
 static_assert(!spec_for<misspelled_invariants, tri_mesh<>>);
+static_assert(!spec_for<quiescent_without_progress, tri_mesh<>>);
 static_assert(!spec_for<no_operations, tri_mesh<>>);
 // The library's own specs and the user's are.
 static_assert(spec_for<algorithms::qslim_spec, tri_mesh<backend::corner_table_tri>>);

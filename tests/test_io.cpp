@@ -261,7 +261,7 @@ TEST_CASE("io: armadillo.obj survives a binary PLY round trip") {
     check_exact_round_trip(armadillo, tmp_file("rt_armadillo.ply"), {encoding::binary});
 }
 
-TEST_CASE("io: extensions are case-insensitive; unknown ones are refused") {
+TEST_CASE("io: extensions are case-insensitive and unknown ones are refused") {
     const surface bunny = read_ok(data_file("bunny.off"));
     check_exact_round_trip(bunny, tmp_file("rt_upper.OBJ"));
     check_exact_round_trip(bunny, tmp_file("rt_mixed.Ply"), {encoding::ascii});

@@ -16,6 +16,7 @@
 #endif
 
 #include <random>
+#include <type_traits>
 
 using namespace idas;
 using namespace idas::algorithms;
@@ -158,6 +159,48 @@ TEST_CASE_TEMPLATE("no_self_intersection: shortest edge collapse keeps clean mes
     CHECK(decimated_intersections<A, S>(idas::test::noisy_thin_plate<Mesh>(32, 0.005, 0.9), 0.03,
                                         true) == 0);
     CHECK(decimated_intersections<A, S>(idas::test::load<Mesh>("100071_sf.obj"), 0.01, true) == 0);
+}
+
+TEST_CASE("no_self_intersection: the index refits to growing faces and QSlim reaches 0.5 percent") {
+    using Mesh = tri_mesh<>;
+    const Mesh armadillo = idas::test::load<Mesh>("armadillo.obj");
+    {
+        Mesh m = armadillo;
+        self_intersection_index index(m);
+        const double fine = index.cell_size();
+        CHECK(index.faces_indexed() == m.n_faces());
+        no_self_intersection guard(index);
+        guard.refit(m, std::int64_t(m.n_faces() / 2)); // not yet a quarter: kept
+        CHECK(index.cell_size() == fine);
+        qslim_spec spec;
+        spec.target_faces = std::int64_t(m.n_faces() / 5);
+        qslim<Mesh, lock::none>::run(m, spec); // unguarded: coarser faces, same index
+        guard.refit(m, std::int64_t(m.n_faces()));
+        CHECK(index.faces_indexed() == m.n_faces());
+        CHECK(index.cell_size() > fine);
+    }
+    // With the grid of the input, the cell table filled up near the end (the faces' boxes
+    // spanned ever more cells) and every collapse needing a new cell was refused: 626
+    // faces instead of 432, 1,295 refusals.
+    auto decimate_to_432 = [&]<class Lock>(std::type_identity<Lock>, unsigned threads) {
+        Mesh m = armadillo;
+        qslim_spec spec;
+        spec.target_faces = 432;
+        self_intersection_index index(m);
+        spec.self_intersections = no_self_intersection(index);
+        exec_options o;
+        o.threads = threads;
+        qslim<Mesh, Lock>::run(m, spec, o);
+        CHECK(m.n_faces() == 432);
+        CHECK(!find_inconsistency(m));
+        CHECK(count_self_intersections(m) == 0);
+        return m.to_arrays();
+    };
+    for (const unsigned threads : {1u, 2u})
+        decimate_to_432(std::type_identity<lock::vertex_try_lock>{}, threads);
+    // Deterministic rounds refit between rounds, at the same counts on any thread count.
+    const std::type_identity<lock::deterministic_rounds> rounds;
+    CHECK(decimate_to_432(rounds, 1) == decimate_to_432(rounds, 3));
 }
 
 TEST_CASE("no_self_intersection: the index follows the mesh through remeshing's phases") {

@@ -286,8 +286,9 @@ TEST_CASE_TEMPLATE("tet mesh: copies are identical, stale tuples detected after 
     CHECK(stale == int(around.size()));
 }
 
-TEST_CASE_TEMPLATE("tet mesh: without slot recycling removed slots stay dead; rollback stays exact",
-                   Mesh, IDAS_TET_MESHES) {
+TEST_CASE_TEMPLATE(
+    "tet mesh: without slot recycling removed slots stay dead and rollback stays exact", Mesh,
+    IDAS_TET_MESHES) {
     auto m = cube<Mesh>(2, false, 0.1, 6);
     idas::test::tet_spec<> spec;
     spec.attach(m);

@@ -182,8 +182,8 @@ TEST_CASE_TEMPLATE("tet ops: 4-4 swap picks the diagonal through the tuple's fac
     }
 }
 
-TEST_CASE_TEMPLATE("tet ops: 2-3 and 3-2 swaps undo each other; non-convex ones are refused", Mesh,
-                   IDAS_TET_MESHES) {
+TEST_CASE_TEMPLATE("tet ops: 2-3 and 3-2 swaps undo each other and non-convex ones are refused",
+                   Mesh, IDAS_TET_MESHES) {
     auto m = bipyramid<Mesh>();
     tet_spec<> spec;
     spec.attach(m);

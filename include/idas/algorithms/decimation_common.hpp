@@ -147,15 +147,22 @@ void push_changed_edges(const Mesh& m, const op_result<typename Mesh::tuple>& r,
 struct face_target {
     std::int64_t target_faces = 0;
     std::int64_t serial_tail = 0; // set by plan_serial_tail
-    /// Faces left to the serial pass: as many as the target, plus `tail_faces_per_part`
-    /// for each part (measured: 1.0x-1.02x the serial Hausdorff distance on the cube and
-    /// bunny at 2 and 8 threads; bench/RESULTS.md).
+    /// Faces left to the serial pass: a quarter of the target (at most a quarter of the
+    /// faces to remove), plus `tail_faces_per_part` for each part. The per-part faces keep
+    /// small meshes' results near the serial ones (bench/RESULTS.md, "Parallel decimation
+    /// quality"); the quarter bounds the serial fraction of large runs by Amdahl's law:
+    /// with all of the target, QSlim to 10% made 12% of its collapses in the serial pass
+    /// (16 cores: 2.6 of 6.0 s at 8 threads), with a quarter 3%, and a run to more than
+    /// half of its input was serial at any thread count.
     static constexpr std::int64_t tail_faces_per_part = 512;
-    void plan_serial_tail(const exec_options& o) noexcept {
+    static constexpr std::int64_t tail_share_of_target_inverse = 4;
+    void plan_serial_tail(const exec_options& o, std::int64_t faces) noexcept {
         const std::int64_t parts = std::int64_t(o.threads) * std::max(1u, o.parts_per_thread);
+        const std::int64_t share =
+            std::min(target_faces, std::max<std::int64_t>(0, faces - target_faces)) /
+            tail_share_of_target_inverse;
         // Deterministic rounds meet the target themselves, best first, on any thread count.
-        serial_tail =
-            o.threads > 1 && !o.deterministic ? target_faces + tail_faces_per_part * parts : 0;
+        serial_tail = o.threads > 1 && !o.deterministic ? share + tail_faces_per_part * parts : 0;
     }
     bool stop(const progress& p) const noexcept { return p.faces <= target_faces; }
     /// The parallel workers' goal. A collapse removes two faces (one on the boundary).
@@ -171,6 +178,12 @@ struct collapse_schedule : face_target, refusal_memory {
     const attribute_transfer* transfer = nullptr;
     /// I: no collapse makes faces meet (disabled unless made from an index of the mesh).
     no_self_intersection self_intersections;
+
+    /// Between operations: the index's cells follow the faces as they grow.
+    template <class Mesh>
+    void quiescent(Mesh& m, const progress& p) {
+        self_intersections.refit(m, p.faces);
+    }
 
     template <class Mesh, class Push>
     void initial(const Mesh& m, Push& push) const {

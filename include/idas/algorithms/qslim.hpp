@@ -17,6 +17,11 @@
 #include <idas/algorithms/quadric.hpp>
 #include <idas/invariants/no_normal_flip.hpp>
 
+#include <boost/container/small_vector.hpp>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
 #include <cmath>
 #include <optional>
 #include <string>
@@ -52,35 +57,65 @@ struct qslim_spec : collapse_schedule {
             throw input_error("qslim: the attribute weight must be a finite number >= 0, not " +
                               std::to_string(attribute_weight));
         forget_refusals(m);
-        plan_serial_tail(o);
+        plan_serial_tail(o, std::int64_t(m.n_faces()));
         Q = m.template add_vertex_attribute<quadric>("qslim_quadric");
         auto q = m.attribute(Q);
-        for (index_t v = 0; v < m.vertex_slots(); ++v) q.raw(v) = {};
-        m.for_each_face([&](const typename Mesh::tuple& t) {
-            const auto& fv = m.face_vertices(t.fid);
-            const vec3 &p0 = m.position(fv[0]), &p1 = m.position(fv[1]), &p2 = m.position(fv[2]);
-            vec3 n = cross(p1 - p0, p2 - p0);
-            const double twice_area = norm(n);
-            if (twice_area == 0) return;
-            n /= twice_area;
-            const quadric k = quadric::plane(n, -dot(n, p0), 0.5 * twice_area);
-            for (index_t v : fv) q.raw(v) += k;
-            // A boundary edge adds a plane through it, perpendicular to the face.
-            auto e = t;
-            for (int i = 0; i < 3; ++i, e = m.switch_edge(m.switch_vertex(e))) {
-                if (!m.is_boundary_edge(e)) continue;
-                const auto [a, b] = m.edge_vertices(e);
-                const vec3 d = m.position(b) - m.position(a);
-                vec3 side = cross(d, n);
-                const double len = norm(side);
-                if (len == 0) continue;
-                side /= len;
-                const quadric kb =
-                    quadric::plane(side, -dot(side, m.position(a)), boundary_weight * dot(d, d));
-                q.raw(a) += kb, q.raw(b) += kb;
-            }
-        });
+        // Each vertex sums its own terms (in parallel, the same sums at any thread count):
+        // its faces' planes, and the planes through its boundary edges, found in its ring
+        // (an edge (v, x) is on the boundary if x follows v in one face of the ring and
+        // precedes it in none, or the other way round), not by a search across each edge.
+        struct corner {
+            index_t next, prev; // the face's corners after v
+            vec3 normal;        // unit, or zero for a face of no area
+        };
+        tbb::parallel_for(tbb::blocked_range<index_t>(0, m.vertex_slots(), 2048),
+                          [&](const tbb::blocked_range<index_t>& r) {
+                              boost::container::small_vector<corner, 16> ring;
+                              for (index_t v = r.begin(); v < r.end(); ++v) {
+                                  q.raw(v) =
+                                      m.vertex_alive(v) ? vertex_quadric(m, v, ring) : quadric{};
+                              }
+                          });
         if (transfer && attribute_weight > 0) appearance.attach(m, *transfer, attribute_weight, Q);
+    }
+
+    /// Vertex v's quadric: its faces' area-weighted planes, and the planes through its
+    /// boundary edges. `ring` is scratch space for v's faces' corners.
+    template <class Mesh, class Ring>
+    quadric vertex_quadric(const Mesh& m, index_t v, Ring& ring) const {
+        quadric sum{};
+        ring.clear();
+        for (index_t f : m.vertex_faces(v)) {
+            const auto& fv = m.face_vertices(f);
+            const int i = fv[0] == v ? 0 : fv[1] == v ? 1 : 2;
+            const vec3& p0 = m.position(fv[0]);
+            vec3 n = cross(m.position(fv[1]) - p0, m.position(fv[2]) - p0);
+            const double twice_area = norm(n);
+            n = twice_area == 0 ? vec3{0, 0, 0} : n / twice_area;
+            ring.push_back({fv[(i + 1) % 3], fv[(i + 2) % 3], n});
+            if (twice_area != 0) sum += quadric::plane(n, -dot(n, p0), 0.5 * twice_area);
+        }
+        for (const auto& c : ring) {
+            if (c.normal.x == 0 && c.normal.y == 0 && c.normal.z == 0) continue;
+            // (v, next) runs v -> next in its face, (prev, v) prev -> v.
+            if (std::none_of(ring.begin(), ring.end(),
+                             [&](const auto& o) { return o.prev == c.next; }))
+                sum += boundary_plane(m.position(v), m.position(c.next), c.normal);
+            if (std::none_of(ring.begin(), ring.end(),
+                             [&](const auto& o) { return o.next == c.prev; }))
+                sum += boundary_plane(m.position(c.prev), m.position(v), c.normal);
+        }
+        return sum;
+    }
+    /// The plane through boundary edge a -> b perpendicular to its face (normal n),
+    /// weighted by boundary_weight and the squared length.
+    quadric boundary_plane(const vec3& a, const vec3& b, const vec3& n) const {
+        const vec3 d = b - a;
+        vec3 side = cross(d, n);
+        const double len = norm(side);
+        if (len == 0) return quadric{};
+        side /= len;
+        return quadric::plane(side, -dot(side, a), boundary_weight * dot(d, d));
     }
 
     /// The quadrics are the run's own: removed when it ends.

@@ -23,7 +23,7 @@ struct shortest_edge_collapse_spec : collapse_schedule {
     template <class Mesh>
     void prepare(Mesh& m, const exec_options& o) {
         forget_refusals(m);
-        plan_serial_tail(o);
+        plan_serial_tail(o, std::int64_t(m.n_faces()));
     }
 
     template <class Mesh>

@@ -14,6 +14,9 @@
 //   bool stop(const progress&)           std::int64_t remaining(const progress&)
 //   void initial(const Mesh&, Push&)     void initial_at(const Mesh&, index_t, Push&)
 //   void prepare(Mesh&[, const exec_options&])                void finish(Mesh&)
+//   void quiescent(Mesh&, const progress&)   where no operation runs: after each success
+//                                            of a serial run or of the final serial pass,
+//                                            and before each deterministic round
 //   parallel_growth(const Mesh&) -> index_t or std::pair<index_t, index_t>
 //   invariant_set<...> invariants() const
 // and for each invariant I of the set (`I::state` default-constructible):
@@ -69,6 +72,7 @@ struct hook_names {
     void initial_at();
     void prepare();
     void finish();
+    void quiescent();
     void parallel_growth();
     void invariants();
     // near misses of real names
@@ -98,6 +102,7 @@ IDAS_DECLARES(initial)
 IDAS_DECLARES(initial_at)
 IDAS_DECLARES(prepare)
 IDAS_DECLARES(finish)
+IDAS_DECLARES(quiescent)
 IDAS_DECLARES(parallel_growth)
 IDAS_DECLARES(invariants)
 IDAS_DECLARES(operation)
@@ -209,6 +214,10 @@ concept prepare_hook = requires(S& s, M& m, const exec_options& o) {
 template <class S, class M>
 concept finish_hook = requires(S& s, M& m) {
     s.finish(m);
+};
+template <class S, class M>
+concept quiescent_hook = requires(S& s, M& m, const progress& p) {
+    s.quiescent(m, p);
 };
 template <class S, class M>
 concept parallel_growth_hook = requires(S& s, const M& m) {
@@ -324,15 +333,16 @@ struct spec_hook_check {
     static constexpr bool initial_at_ok = !declares_initial_at<S> || initial_at_hook<S, M>;
     static constexpr bool prepare_ok = !declares_prepare<S> || prepare_hook<S, M>;
     static constexpr bool finish_ok = !declares_finish<S> || finish_hook<S, M>;
+    static constexpr bool quiescent_ok = !declares_quiescent<S> || quiescent_hook<S, M>;
     static constexpr bool parallel_growth_ok =
         !declares_parallel_growth<S> || parallel_growth_hook<S, M>;
     static constexpr bool invariants_ok = !declares_invariants<S> || invariants_hook<S>;
     static constexpr bool names_ok = !declares_operation<S> && !declares_invariant<S> &&
                                      !declares_priorities<S> && !declares_renews<S>;
-    static constexpr bool ok = priority_ok && before_ok && after_ok && renew_ok &&
-                               should_process_ok && refused_ok && lock_region_ok && stop_ok &&
-                               remaining_ok && initial_ok && initial_at_ok && prepare_ok &&
-                               finish_ok && parallel_growth_ok && invariants_ok && names_ok;
+    static constexpr bool ok =
+        priority_ok && before_ok && after_ok && renew_ok && should_process_ok && refused_ok &&
+        lock_region_ok && stop_ok && remaining_ok && initial_ok && initial_at_ok && prepare_ok &&
+        finish_ok && quiescent_ok && parallel_growth_ok && invariants_ok && names_ok;
 
     static constexpr bool check() {
         static_assert(priority_ok, "idas: spec hook `priority` matches no operation kind in "
@@ -371,6 +381,8 @@ struct spec_hook_check {
                                   "prepare(Mesh&) or prepare(Mesh&, const idas::exec_options&)");
         static_assert(finish_ok,
                       "idas: spec hook `finish` does not match: expected void finish(Mesh&)");
+        static_assert(quiescent_ok, "idas: spec hook `quiescent` does not match: expected void "
+                                    "quiescent(Mesh&, const idas::progress&)");
         static_assert(parallel_growth_ok,
                       "idas: spec hook `parallel_growth` does not match: expected index_t or "
                       "std::pair<index_t, index_t> parallel_growth(const Mesh&)");

@@ -129,7 +129,11 @@ public:
         seed();
         live_ = hooks::counts(m_);
         const double seeded = seeding.seconds();
-        while (!hooks::should_stop(spec_, live_) && fill_and_select() > 0) {
+        while (!hooks::should_stop(spec_, live_)) {
+            // Between rounds no operation runs, and the counts are the same at any thread
+            // count, so what the spec refits here does not depend on the threads either.
+            hooks::quiescent(spec_, m_, live_);
+            if (fill_and_select() == 0) break;
             if (select_winners() == 0) continue; // cannot happen: the best candidate wins
             execute_winners();
             merge_round();

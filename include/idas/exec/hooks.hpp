@@ -42,6 +42,13 @@ struct hooks {
         if constexpr (finish_hook<Spec, Mesh>) spec.finish(m);
     }
 
+    /// Where no operation runs (serial runs and the final serial pass, after each
+    /// success; before each deterministic round): a spec may refit what its operations
+    /// read.
+    static void quiescent(Spec& spec, Mesh& m, const progress& p) {
+        if constexpr (quiescent_hook<Spec, Mesh>) spec.quiescent(m, p);
+    }
+
     static constexpr bool seeds_per_vertex = initial_at_hook<Spec, Mesh>;
 
     /// The initial entries found at vertex v.

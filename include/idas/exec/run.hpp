@@ -273,6 +273,7 @@ private:
     void count_success(worker& me, std::int64_t faces, std::int64_t vertices) {
         if constexpr (!Shared) {
             ++live_.successes, live_.faces += faces, live_.vertices += vertices;
+            hooks::quiescent(spec_, m_, live_);
             if (hooks::should_stop(spec_, live_)) stop_.store(true, std::memory_order_relaxed);
         } else if constexpr (hooks::watches_progress) {
             const std::int64_t delta = pack(faces, vertices);
@@ -393,6 +394,7 @@ private:
         live_ = shared_progress();
         stop_.store(false, std::memory_order_relaxed);
         if (!hooks::should_stop(spec_, live_)) {
+            hooks::quiescent(spec_, m_, live_);
             worker& me = serial_worker();
             for (const auto& x : final_pass_) me.q.push(x);
             report_.pushed += final_pass_.size();

@@ -6,6 +6,11 @@
 
 #include <idas/core/types.hpp>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+#include <tbb/parallel_sort.h>
+
 #include <algorithm>
 #include <array>
 #include <atomic>
@@ -52,45 +57,66 @@ public:
     /// quantum (1/65000 of the box's longest side).
     template <class Mesh>
     explicit self_intersection_index(const Mesh& m, double cell_size = 0) {
-        vec3 lo{inf, inf, inf}, hi{-inf, -inf, -inf};
-        double edge_sum = 0;
-        std::size_t edges = 0;
-        for (index_t f = 0; f < m.face_slots(); ++f) {
-            if (!m.face_alive(f)) continue;
-            const auto& fv = m.face_vertices(f);
-            for (int k = 0; k < 3; ++k) {
-                const vec3& p = m.position(fv[k]);
-                for (int i = 0; i < 3; ++i)
-                    lo[i] = std::min(lo[i], p[i]), hi[i] = std::max(hi[i], p[i]);
-                edge_sum += norm(m.position(fv[(k + 1) % 3]) - p), ++edges;
-            }
-        }
+        rebuild(m, cell_size);
+    }
+
+    /// Indexes the live faces of m anew, with cells sized for the mesh as it is now (see
+    /// the constructor). Only while no operation reads or writes the index. Parallel with
+    /// oneTBB (its threads as the caller allows), and the same index at any thread count:
+    /// the sums are deterministic reductions, and cells list their faces by id.
+    template <class Mesh>
+    void rebuild(const Mesh& m, double cell_size = 0) {
+        using range = tbb::blocked_range<index_t>;
+        const index_t slots = m.face_slots();
+        const extent_sum box = tbb::parallel_deterministic_reduce(
+            range(0, slots, 4096), extent_sum{},
+            [&](const range& r, extent_sum acc) {
+                for (index_t f = r.begin(); f < r.end(); ++f)
+                    if (m.face_alive(f)) acc.add(m, f);
+                return acc;
+            },
+            [](extent_sum a, const extent_sum& b) { return a.merge(b); });
+        faces_ = box.faces;
+        const std::size_t edges = 3 * box.faces;
+        vec3 lo = box.lo, hi = box.hi;
         if (edges == 0) lo = hi = vec3{0, 0, 0};
         const double extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
         quantum_ = extent > 0 && std::isfinite(extent) ? extent / 65000 : 1;
         inv_quantum_ = 1 / quantum_;
         origin_ = lo;
-        double h = cell_size > 0 ? cell_size : edges ? 4 * edge_sum / double(edges) : 0;
+        double h = cell_size > 0 ? cell_size : edges ? 4 * box.edge_sum / double(edges) : 0;
         if (!(h > 0) || !std::isfinite(h)) h = 64 * quantum_;
         // A power of two of quanta per cell, so a cell coordinate is a shift away.
+        cell_shift_ = 0;
         while (cell_shift_ < 15 && double(2u << cell_shift_) <= h * inv_quantum_) ++cell_shift_;
         for (int i = 0; i < 3; ++i) {
             top_[i] = std::uint16_t(std::min(65535.0, std::ceil((hi[i] - lo[i]) * inv_quantum_)));
             lock_dims_[i] = (std::int32_t(top_[i] >> cell_shift_) >> lock_shift) + 1;
         }
 
-        // Every (cell, face) pair, sorted by cell: the cells' sizes, then their entries.
-        std::vector<std::pair<std::uint64_t, index_t>> pairs;
-        pairs.reserve(std::size_t(m.face_slots()) * 4);
-        for (index_t f = 0; f < m.face_slots(); ++f)
-            if (m.face_alive(f))
+        // Every (cell, face) pair, sorted by cell: counted, placed, sorted.
+        std::vector<std::size_t> first(std::size_t(slots) + 1, 0);
+        tbb::parallel_for(range(0, slots, 4096), [&](const range& r) {
+            for (index_t f = r.begin(); f < r.end(); ++f)
+                first[f + 1] = m.face_alive(f) ? cells_in(range_of(entry_of(m, f))) : 0;
+        });
+        for (std::size_t f = 0; f < slots; ++f) first[f + 1] += first[f];
+        std::vector<std::pair<std::uint64_t, index_t>> pairs(first[slots]);
+        tbb::parallel_for(range(0, slots, 4096), [&](const range& r) {
+            for (index_t f = r.begin(); f < r.end(); ++f) {
+                if (!m.face_alive(f)) continue;
+                std::size_t at = first[f];
                 for_each_cell(range_of(entry_of(m, f)), [&](std::uint64_t key) {
-                    pairs.push_back({key, f});
+                    pairs[at++] = {key, f};
                 });
-        std::sort(pairs.begin(), pairs.end());
-        std::size_t distinct = 0;
+            }
+        });
+        tbb::parallel_sort(pairs.begin(), pairs.end());
+        std::vector<std::size_t> starts; // where each cell's pairs begin
         for (std::size_t i = 0; i < pairs.size(); ++i)
-            distinct += i == 0 || pairs[i].first != pairs[i - 1].first;
+            if (i == 0 || pairs[i].first != pairs[i - 1].first) starts.push_back(i);
+        starts.push_back(pairs.size());
+        const std::size_t distinct = starts.size() - 1;
         // Room for the cells operations will move faces into, without resizing in parallel:
         // the table is at most half full with twice the cells it starts with.
         capacity_ = 2 * distinct + 4096;
@@ -98,13 +124,17 @@ public:
         while (n < 2 * capacity_) n *= 2;
         mask_ = n - 1;
         slots_ = std::make_unique<slot[]>(n);
-        for (std::size_t i = 0; i < pairs.size();) {
-            std::size_t j = i;
-            while (j < pairs.size() && pairs[j].first == pairs[i].first) ++j;
-            std::vector<entry>& c = *find_or_add(pairs[i].first); // room for all of them
-            c.reserve(j - i + 2);
-            for (; i < j; ++i) c.push_back(entry_of(m, pairs[i].second));
-        }
+        used_.store(0, std::memory_order_relaxed);
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, distinct, 256),
+                          [&](const tbb::blocked_range<std::size_t>& r) {
+                              for (std::size_t c = r.begin(); c < r.end(); ++c) {
+                                  const std::size_t i = starts[c], j = starts[c + 1];
+                                  std::vector<entry>& cell = *find_or_add(pairs[i].first);
+                                  cell.reserve(j - i + 2);
+                                  for (std::size_t k = i; k < j; ++k)
+                                      cell.push_back(entry_of(m, pairs[k].second));
+                              }
+                          });
     }
 
     self_intersection_index(const self_intersection_index&) = delete;
@@ -114,6 +144,8 @@ public:
     std::size_t lock_cells() const noexcept {
         return std::size_t(lock_dims_[0]) * lock_dims_[1] * lock_dims_[2];
     }
+    /// Live faces at the last (re)build.
+    std::size_t faces_indexed() const noexcept { return faces_; }
     /// Grid cells that hold (or held) faces.
     std::size_t cells_used() const noexcept { return used_.load(std::memory_order_relaxed); }
 
@@ -218,6 +250,35 @@ public:
 private:
     static constexpr double inf = std::numeric_limits<double>::infinity();
 
+    /// The faces' box, count and summed edge lengths, over a range of faces.
+    struct extent_sum {
+        vec3 lo{inf, inf, inf}, hi{-inf, -inf, -inf};
+        double edge_sum = 0;
+        std::size_t faces = 0;
+        template <class Mesh>
+        void add(const Mesh& m, index_t f) {
+            ++faces;
+            const auto& fv = m.face_vertices(f);
+            for (int k = 0; k < 3; ++k) {
+                const vec3& p = m.position(fv[k]);
+                for (int i = 0; i < 3; ++i)
+                    lo[i] = std::min(lo[i], p[i]), hi[i] = std::max(hi[i], p[i]);
+                edge_sum += norm(m.position(fv[(k + 1) % 3]) - p);
+            }
+        }
+        extent_sum merge(const extent_sum& o) const {
+            extent_sum r = *this;
+            for (int i = 0; i < 3; ++i)
+                r.lo[i] = std::min(lo[i], o.lo[i]), r.hi[i] = std::max(hi[i], o.hi[i]);
+            r.edge_sum += o.edge_sum, r.faces += o.faces;
+            return r;
+        }
+    };
+    static std::size_t cells_in(const cell_range& r) noexcept {
+        return std::size_t(r.hi[0] - r.lo[0] + 1) * std::size_t(r.hi[1] - r.lo[1] + 1) *
+               std::size_t(r.hi[2] - r.lo[2] + 1);
+    }
+
     /// A cell: its key (plus one; 0 while free) beside its entries.
     struct slot {
         std::atomic<std::uint64_t> key{0};
@@ -247,7 +308,7 @@ private:
     std::array<std::uint16_t, 3> top_{0, 0, 0};
     std::array<std::int32_t, 3> lock_dims_{1, 1, 1};
     std::unique_ptr<slot[]> slots_;
-    std::size_t mask_ = 0, capacity_ = 0;
+    std::size_t mask_ = 0, capacity_ = 0, faces_ = 0;
     std::atomic<std::size_t> used_{0};
 };
 
