@@ -15,9 +15,11 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
-#include <tbb/parallel_sort.h>
 
 #include <array>
+#include <atomic>
+#include <cstddef>
+#include <memory>
 #include <optional>
 #include <string>
 #include <tuple>
@@ -69,29 +71,51 @@ inline std::optional<std::string> check_harmonic_result(const idas::io::volume& 
     if (first_bad < T.size()) return tet_problem(first_bad);
     // Every face (sorted key, as its tet sees it from outside), sorted so that copies of a
     // face are adjacent: a face seen once is on the boundary, more than twice is an error.
+    // Sorted in buckets by the key's smallest vertex (counted, placed, each bucket sorted
+    // on its own): the same order as one sort of all 4 |T| faces, without its log factor.
     struct face_use {
         std::array<index_t, 3> key;
         idas::tri_indices outward;
+        bool operator<(const face_use& o) const {
+            return std::tie(key, outward) < std::tie(o.key, o.outward);
+        }
     };
-    std::vector<face_use> faces(4 * T.size());
+    const auto face_of = [&](std::size_t t, std::size_t k) {
+        const auto& lf = idas::tet_local::face_vertices[k];
+        const idas::tri_indices f = {T[t][lf[0]], T[t][lf[1]], T[t][lf[2]]};
+        std::array<index_t, 3> key = f;
+        std::sort(key.begin(), key.end());
+        return face_use{key, f};
+    };
+    std::vector<std::size_t> start(V.size() + 1, 0); // counts, then where buckets start
     tbb::parallel_for(range(0, T.size(), 4096), [&](const range& r) {
         for (std::size_t t = r.begin(); t != r.end(); ++t)
-            for (std::size_t k = 0; k < 4; ++k) {
-                const auto& lf = idas::tet_local::face_vertices[k];
-                const idas::tri_indices f = {T[t][lf[0]], T[t][lf[1]], T[t][lf[2]]};
-                std::array<index_t, 3> key = f;
-                std::sort(key.begin(), key.end());
-                faces[4 * t + k] = {key, f};
-            }
+            for (std::size_t k = 0; k < 4; ++k)
+                std::atomic_ref<std::size_t>(start[face_of(t, k).key[0] + 1])
+                    .fetch_add(1, std::memory_order_relaxed);
     });
-    tbb::parallel_sort(faces.begin(), faces.end(), [](const face_use& a, const face_use& b) {
-        return std::tie(a.key[0], a.key[1], a.key[2], a.outward[0], a.outward[1], a.outward[2]) <
-               std::tie(b.key[0], b.key[1], b.key[2], b.outward[0], b.outward[1], b.outward[2]);
+    for (std::size_t v = 0; v < V.size(); ++v) start[v + 1] += start[v];
+    const std::size_t n = 4 * T.size();
+    const std::unique_ptr<face_use[]> faces(new face_use[n]); // written once below
+    {
+        std::vector<std::size_t> cursor(start.begin(), start.end() - 1);
+        tbb::parallel_for(range(0, T.size(), 4096), [&](const range& r) {
+            for (std::size_t t = r.begin(); t != r.end(); ++t)
+                for (std::size_t k = 0; k < 4; ++k) {
+                    const face_use f = face_of(t, k);
+                    faces[std::atomic_ref<std::size_t>(cursor[f.key[0]])
+                              .fetch_add(1, std::memory_order_relaxed)] = f;
+                }
+        });
+    }
+    tbb::parallel_for(range(0, V.size(), 1024), [&](const range& r) {
+        for (std::size_t v = r.begin(); v != r.end(); ++v)
+            std::sort(faces.get() + start[v], faces.get() + start[v + 1]);
     });
     std::vector<idas::tri_indices> boundary;
-    for (std::size_t i = 0; i < faces.size();) {
+    for (std::size_t i = 0; i < n;) {
         std::size_t j = i + 1;
-        while (j < faces.size() && faces[j].key == faces[i].key) ++j;
+        while (j < n && faces[j].key == faces[i].key) ++j;
         if (j - i > 2) {
             const auto& k = faces[i].key;
             return "face (" + std::to_string(k[0]) + ", " + std::to_string(k[1]) + ", " +
