@@ -302,6 +302,12 @@ public:
                 around.lo[i] = std::min(around.lo[i], made[k].lo[i]),
                 around.hi[i] = std::max(around.hi[i], made[k].hi[i]);
         }
+        // Memory first, work while it arrives: ask for the grid cells the new faces overlap,
+        // test the new faces against each other, then ask for the cells' entries (every
+        // line of them), build the box block, and only then scan.
+        const cell_range all = index_->range_of(around);
+        self_intersection_index::for_each_cell(all,
+                                               [&](std::uint64_t key) { index_->prefetch(key); });
         // The new faces against each other: at once where they are the anchor's whole star
         // (a split's, a collapse's or a move's), else pair by pair.
         boost::container::small_vector<index_t, 24> ids;
@@ -314,48 +320,71 @@ public:
             for (std::size_t k = 0; k < n; ++k)
                 for (std::size_t l = k + 1; l < n; ++l)
                     if (overlap(made[k], made[l]) && si::meet(shape[k], shape[l])) return false;
-        const cell_range all = index_->range_of(around);
-        // Ask for every cell first so that their cache misses overlap, then their entries.
+        // Each candidate is taken once: from the cell of `all` that holds the lowest corner
+        // of its box within `all`, that is, where its box starts at or after the cell's
+        // first quantum on each axis where that cell is not on `all`'s low side.
         struct cell_at {
             const std::vector<entry>* entries;
-            std::array<std::int32_t, 3> where;
+            std::array<std::uint16_t, 3> from;
         };
         boost::container::small_vector<cell_at, 32> cells;
-        self_intersection_index::for_each_cell(all,
-                                               [&](std::uint64_t key) { index_->prefetch(key); });
         self_intersection_index::for_each_cell(all, [&](std::uint64_t key) {
             const auto* c = index_->find(key);
-            if (c && !c->empty()) {
-                __builtin_prefetch(c->data());
-                cells.push_back({c, self_intersection_index::coordinates(key)});
-            }
+            if (!c || c->empty()) return;
+            const auto* bytes = reinterpret_cast<const char*>(c->data());
+            for (std::size_t at = 0; at < c->size() * sizeof(entry); at += 64)
+                __builtin_prefetch(bytes + at);
+            const auto where = self_intersection_index::coordinates(key);
+            cell_at cell{c, {}};
+            for (int i = 0; i < 3; ++i)
+                cell.from[i] = where[i] == all.lo[i] ? 0 : index_->first_quantum(where[i]);
+            cells.push_back(cell);
         });
+        // The candidates first, then their corners, then the tests: each step asks for
+        // the memory the next one reads (a candidate's face, then its vertices' positions),
+        // so that the cache misses of all candidates overlap instead of following each
+        // other (they were half of this check's time).
         const si::box_block boxes(made);
-        for (const auto& [entries, where] : cells)
+        struct candidate {
+            entry g;
+            std::uint32_t near; // bit k: new face k's box overlaps (the first 32 of them)
+            bool beyond;        // a new face past the first 32 overlaps
+        };
+        boost::container::small_vector<candidate, 64> found;
+        for (const auto& [entries, from] : cells)
             for (const entry& g : *entries) {
-                // Each candidate once: from the cell holding its box's lowest corner in `all`.
-                if (!overlap(around, g) || first_cell(g, all) != where) continue;
-                std::uint32_t near = boxes.overlapping(g);
-                bool beyond = false; // new faces past the block's (a star of over 32 faces)
+                if (g.lo[0] < from[0] || g.lo[1] < from[1] || g.lo[2] < from[2] ||
+                    !overlap(around, g))
+                    continue;
+                const std::uint32_t near = boxes.overlapping(g);
+                bool beyond = false;
                 for (std::size_t k = si::box_block::max_faces; k < n && !beyond; ++k)
                     beyond = overlap(made[k], g);
-                if ((near == 0 && !beyond) || is_among(made, g.face) || !m.face_alive(g.face))
-                    continue;
-                // The candidate's plane only when a new face's plane cannot part them.
-                const auto& gv = m.face_vertices(g.face);
-                const std::array<vec3, 3> gp{m.position(gv[0]), m.position(gv[1]),
-                                             m.position(gv[2])};
-                std::optional<si::triangle> other;
-                auto meets = [&](std::size_t k) {
-                    if (plane_separates(shape[k], gp, gv)) return false;
-                    if (!other) other.emplace(gp, gv);
-                    return si::meet(shape[k], *other);
-                };
-                for (; near != 0; near &= near - 1)
-                    if (meets(std::size_t(std::countr_zero(near)))) return false;
-                for (std::size_t k = si::box_block::max_faces; k < n; ++k)
-                    if (overlap(made[k], g) && meets(k)) return false;
+                if ((near == 0 && !beyond) || is_among(made, g.face)) continue;
+                __builtin_prefetch(&m.face_vertices(g.face));
+                found.push_back({g, near, beyond});
             }
+        for (const candidate& c : found)
+            if (m.face_alive(c.g.face))
+                for (index_t v : m.face_vertices(c.g.face)) __builtin_prefetch(&m.position(v));
+        si::triangle other; // out of the loop: made once, not zeroed per candidate
+        for (const candidate& c : found) {
+            if (!m.face_alive(c.g.face)) continue;
+            // The candidate's plane only when a new face's plane cannot part them.
+            const auto& gv = m.face_vertices(c.g.face);
+            const std::array<vec3, 3> gp{m.position(gv[0]), m.position(gv[1]), m.position(gv[2])};
+            bool built = false;
+            auto meets = [&](std::size_t k) {
+                if (plane_separates(shape[k], gp, gv)) return false;
+                if (!built) other = si::triangle(gp, gv), built = true;
+                return si::meet(shape[k], other);
+            };
+            for (std::uint32_t near = c.near; near != 0; near &= near - 1)
+                if (meets(std::size_t(std::countr_zero(near)))) return false;
+            if (c.beyond)
+                for (std::size_t k = si::box_block::max_faces; k < n; ++k)
+                    if (overlap(made[k], c.g) && meets(k)) return false;
+        }
         return commit(s, made, ranges);
     }
 
@@ -386,14 +415,6 @@ private:
             if (e.face == f) return true;
         return false;
     }
-    /// The cell of g's range at the lowest corner of its overlap with `all`.
-    std::array<std::int32_t, 3> first_cell(const self_intersection_index::entry& g,
-                                           const cell_range& all) const noexcept {
-        const auto lowest = index_->lowest_cell(g);
-        return {std::max(lowest[0], all.lo[0]), std::max(lowest[1], all.lo[1]),
-                std::max(lowest[2], all.lo[2])};
-    }
-
     /// Moves the changed faces in the index: out of their old cells, into their new ones.
     template <class Made, class Ranges>
     bool commit(const state& s, const Made& made, const Ranges& ranges) const {

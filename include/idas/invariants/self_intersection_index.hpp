@@ -173,10 +173,9 @@ public:
         for (int i = 0; i < 3; ++i) e.lo[i] = below(lo[i], i), e.hi[i] = above(hi[i], i);
         return e;
     }
-    /// The lowest cell an entry's box overlaps.
-    std::array<std::int32_t, 3> lowest_cell(const entry& e) const noexcept {
-        return {std::int32_t(e.lo[0] >> cell_shift_), std::int32_t(e.lo[1] >> cell_shift_),
-                std::int32_t(e.lo[2] >> cell_shift_)};
+    /// The first quantum of cell c along an axis.
+    std::uint16_t first_quantum(std::int32_t c) const noexcept {
+        return std::uint16_t(std::uint32_t(c) << cell_shift_);
     }
     /// The cells an entry's box overlaps.
     cell_range range_of(const entry& e) const noexcept {
