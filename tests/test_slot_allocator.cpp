@@ -19,7 +19,7 @@ std::vector<index_t> free_list(const slot_allocator& a) {
 
 TEST_CASE("slot allocator: serial append, release, reuse newest first, undo") {
     slot_allocator a;
-    auto x = a.acquire(5);
+    auto x = a.acquire(5, 0);
     CHECK(x.slot == 5);
     CHECK(x.source == slot_source::appended);
     CHECK(a.release(2));
@@ -27,41 +27,37 @@ TEST_CASE("slot allocator: serial append, release, reuse newest first, undo") {
     CHECK(free_list(a) == std::vector<index_t>{2, 4});
     const slot_allocator before = a;
 
-    x = a.acquire(6);
+    x = a.acquire(6, 0);
     CHECK(x.slot == 4); // the most recently freed
     CHECK(x.source == slot_source::reused);
-    const auto y = a.acquire(6);
+    const auto y = a.acquire(6, 0);
     CHECK(y.slot == 2);
-    const auto z = a.acquire(6);
+    const auto z = a.acquire(6, 0);
     CHECK(z.slot == 6);
     CHECK(z.source == slot_source::appended);
     CHECK(free_list(a).empty());
     CHECK(a.release(4));
     // Undo newest first.
     a.undo_release(4);
-    CHECK(a.undo_acquire(z.slot, z.source, 7)); // appended: the caller drops slot 6
-    CHECK(!a.undo_acquire(y.slot, y.source, 6));
+    CHECK(a.undo_acquire(z.slot, z.source, 7, 0)); // appended: the caller drops slot 6
+    CHECK(!a.undo_acquire(y.slot, y.source, 6, 0));
     CHECK(free_list(a) == std::vector<index_t>{2});
-    CHECK(!a.undo_acquire(x.slot, x.source, 6));
+    CHECK(!a.undo_acquire(x.slot, x.source, 6, 0));
     CHECK(a == before);
 
     // Without recycling, released slots stay dead and dead slots are not reused.
     a.set_recycling(false);
     CHECK(!a.release(7));
-    CHECK(a.acquire(9).slot == 9);
+    CHECK(a.acquire(9, 0).slot == 9);
     CHECK(free_list(a) == std::vector<index_t>{2, 4});
     a.set_recycling(true);
-    CHECK(a.acquire(9).slot == 4);
+    CHECK(a.acquire(9, 0).slot == 4);
     a.clear();
     CHECK(free_list(a).empty());
-    CHECK(a.acquire(9).source == slot_source::appended);
+    CHECK(a.acquire(9, 0).source == slot_source::appended);
 }
 
 TEST_CASE("slot allocator: parallel pools take dead slots first, undo, end_parallel") {
-    struct worker_scope { // worker_index is thread-local; leave it as found
-        unsigned saved = idas::detail::worker_index;
-        ~worker_scope() { idas::detail::worker_index = saved; }
-    } scope;
     slot_allocator a;
     CHECK(a.release(3));
     CHECK(a.release(7));
@@ -73,31 +69,30 @@ TEST_CASE("slot allocator: parallel pools take dead slots first, undo, end_paral
     CHECK(a.available(0) == 3);
     CHECK(a.available(1) == 3);
 
-    idas::detail::worker_index = 1;
-    CHECK(a.has_room(3));
-    CHECK(!a.has_room(4));
-    const auto p = a.acquire(13);
+    // Worker 1's operations name pool 1 (their undo log's `pool`).
+    CHECK(a.has_room(3, 1));
+    CHECK(!a.has_room(4, 1));
+    const auto p = a.acquire(13, 1);
     CHECK(p.slot == 10); // ascending within a worker
     CHECK(p.source == slot_source::pooled);
-    const auto q = a.acquire(13);
+    const auto q = a.acquire(13, 1);
     CHECK(q.slot == 11);
     CHECK(!a.release(11)); // recycling is off in a parallel phase
     CHECK(a.available(1) == 1);
-    CHECK(!a.undo_acquire(q.slot, q.source, 13));
+    CHECK(!a.undo_acquire(q.slot, q.source, 13, 1));
     CHECK(a.available(1) == 2);
-    CHECK(a.acquire(13).slot == 11); // given back where it was taken
+    CHECK(a.acquire(13, 1).slot == 11); // given back where it was taken
 
-    idas::detail::worker_index = 0;
-    CHECK(a.acquire(13).slot == 1);
+    CHECK(a.acquire(13, 0).slot == 1);
     CHECK(a.available(0) == 2);
 
     // Unused slots become dead slots, recycled again.
     a.end_parallel();
     CHECK(free_list(a) == std::vector<index_t>{3, 7, 12});
-    const auto r = a.acquire(13);
+    const auto r = a.acquire(13, 0);
     CHECK(r.slot == 12);
     CHECK(r.source == slot_source::reused);
-    CHECK(a.has_room(1000)); // serial: no limit
+    CHECK(a.has_room(1000, 0)); // serial: no limit
 }
 
 TEST_CASE("slot allocator: quota pools, one per operation, dealt in order") {
@@ -109,21 +104,18 @@ TEST_CASE("slot allocator: quota pools, one per operation, dealt in order") {
     const std::vector<index_t> quotas{2, 0, 3};
     CHECK(a.begin_parallel(std::span<const index_t>(quotas), 10) == 13);
     CHECK(free_list(a).empty());
-    idas::detail::worker_index = 0;
     CHECK(a.available(0) == 2);
     CHECK(a.available(1) == 0);
     CHECK(a.available(2) == 3);
-    CHECK(a.acquire(13).slot == 3);
-    CHECK(a.acquire(13).slot == 7);
-    CHECK_FALSE(a.has_room(1));
-    idas::detail::worker_index = 2;
-    const auto x = a.acquire(13);
+    CHECK(a.acquire(13, 0).slot == 3);
+    CHECK(a.acquire(13, 0).slot == 7);
+    CHECK_FALSE(a.has_room(1, 0));
+    const auto x = a.acquire(13, 2);
     CHECK(x.slot == 10);
     CHECK(x.source == slot_source::pooled);
-    CHECK_FALSE(a.undo_acquire(x.slot, x.source, 13)); // back to its pool
+    CHECK_FALSE(a.undo_acquire(x.slot, x.source, 13, 2)); // back to its pool
     CHECK(a.available(2) == 3);
-    CHECK(a.acquire(13).slot == 10);
-    idas::detail::worker_index = 0;
+    CHECK(a.acquire(13, 2).slot == 10);
     a.end_parallel();
     CHECK(free_list(a) == std::vector<index_t>{11, 12}); // the unused, as dead slots
 }

@@ -72,12 +72,6 @@ inline bool is_finite(const vec3& a) noexcept {
 using tri_indices = std::array<index_t, 3>;
 using tet_indices = std::array<index_t, 4>;
 
-namespace detail {
-/// Index of the parallel worker running on this thread (0 outside parallel phases).
-/// Backends use it to hand out new slots from the worker's own pool without atomics.
-inline thread_local unsigned worker_index = 0;
-} // namespace detail
-
 /// Raised for input the library refuses: malformed files, non-manifold meshes,
 /// out-of-range indices. The message says where the problem is.
 class input_error : public std::runtime_error {

@@ -414,7 +414,7 @@ private:
             op_context<Mesh>& ctx = *me.ctx;
             ctx.worker = t;
             for (std::size_t w = b; w < e; ++w) {
-                detail::worker_index = static_cast<unsigned>(w); // the winner's slot pool
+                ctx.conn.pool = static_cast<unsigned>(w); // the winner's own slots
                 const std::size_t i = winners_[w];
                 entry& en = cand_[i];
                 auto& out = me.out[cand_shard_[i]];
@@ -437,8 +437,8 @@ private:
                 });
                 face_delta_[w] = ctx.face_delta - fd, vertex_delta_[w] = ctx.vertex_delta - vd;
             }
+            ctx.conn.pool = 0;
         });
-        detail::worker_index = 0;
         if constexpr (ops::adds_simplices) {
             m_.end_parallel();
             m_.set_slot_recycling(false); // end_parallel turned it on

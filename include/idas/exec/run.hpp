@@ -126,10 +126,9 @@ public:
         detail::run_workers(options_.threads, parts(), [&](unsigned w) {
             worker& me = *workers_[w];
             me.ctx->worker = w;
-            detail::worker_index = w; // the backends' slot pools
+            me.ctx->conn.pool = w; // new simplices come from the worker's own slots
             fn(me);
         });
-        detail::worker_index = 0;
     }
 
     /// Pops `me`'s next entry under its lock.
@@ -167,7 +166,7 @@ public:
                 return;
             }
             if constexpr (Shared) {
-                if (!m_.has_room(Op::adds_vertices, Op::adds_faces)) {
+                if (!m_.has_room(Op::adds_vertices, Op::adds_faces, me.ctx->conn.pool)) {
                     claimer.release();
                     outcome = step_outcome::no_room;
                     return;

@@ -266,11 +266,14 @@ public:
     void rollback(undo_log& log, std::size_t mark) { conn_.rollback(log, mark); }
     void set_slot_recycling(bool on) noexcept { conn_.set_slot_recycling(on); }
 
-    /// Whether the backend can hand out new slots to concurrent workers.
-    static constexpr bool parallel_growth = requires(Backend b, unsigned w, index_t n) {
+    /// Whether the backend can hand out new slots to concurrent workers: from per-worker
+    /// pools, the one an operation's undo log names (`log.pool`, set by the executor).
+    static constexpr bool parallel_growth =
+        requires(Backend b, unsigned w, index_t n, typename Backend::undo_log log) {
         b.begin_parallel(w, n, n);
         b.end_parallel();
-        { b.has_room(n, n) } -> std::convertible_to<bool>;
+        { b.has_room(n, n, 0u) } -> std::convertible_to<bool>;
+        log.pool = w;
     };
     /// Grows every array once so `workers` workers can add up to the given numbers of
     /// vertices and faces concurrently (see the backend's begin_parallel).
@@ -287,9 +290,11 @@ public:
         grow_attributes();
     }
     void end_parallel() requires parallel_growth { conn_.end_parallel(); }
-    bool has_room(index_t vertices, index_t faces) const noexcept {
+    /// Whether slot pool `pool` (a parallel worker's) can serve an operation that adds up
+    /// to these numbers of simplices (always outside a parallel phase).
+    bool has_room(index_t vertices, index_t faces, unsigned pool) const noexcept {
         if constexpr (parallel_growth)
-            return conn_.has_room(vertices, faces);
+            return conn_.has_room(vertices, faces, pool);
         else
             return true;
     }

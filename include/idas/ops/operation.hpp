@@ -87,8 +87,9 @@ struct op_context {
     // running operation (folded in on commit). Plain integers: each thread owns its context.
     std::int64_t face_delta = 0, vertex_delta = 0;
     std::int64_t pending_faces = 0, pending_vertices = 0;
-    /// The parallel worker this context belongs to (0 in serial runs); the executor also
-    /// tells the backends (detail::worker_index), which deal new slots from its pool.
+    /// The parallel worker this context belongs to (0 in serial runs). The slot pool new
+    /// simplices come from is `conn.pool`, which the executor sets: the worker's, or in a
+    /// deterministic round each operation's own.
     unsigned worker = 0;
 
     op_context() { conn.reserve(256), cells.reserve(64), origins.reserve(64), scratch.reserve(64); }

@@ -102,6 +102,9 @@ public:
         void clear() noexcept { entries_.clear(), pending_.clear(); }
         std::span<const undo_entry> entries() const noexcept { return entries_; }
 
+        /// The slot pool new simplices come from (see detail::undo_list).
+        unsigned pool = 0;
+
     private:
         friend class adjacency_tet;
         struct pending_face {
@@ -263,7 +266,7 @@ public:
     }
 
     /// As indexed_tet: the arrays grow once, here, by the given numbers of dead slots,
-    /// dealt out to per-worker pools (detail::worker_index picks the pool).
+    /// dealt out to per-worker pools (the undo log's `pool` picks one).
     void begin_parallel(unsigned workers, index_t extra_vertices, index_t extra_tets) {
         const index_t nv = vertex_alloc_.begin_parallel(workers, vertex_slots(), extra_vertices);
         const index_t nt = tet_alloc_.begin_parallel(workers, tet_slots(), extra_tets);
@@ -278,15 +281,15 @@ public:
     }
     /// Unused pool slots become ordinary recyclable dead slots again.
     void end_parallel() { vertex_alloc_.end_parallel(), tet_alloc_.end_parallel(); }
-    bool has_room(index_t vertices, index_t tets) const noexcept {
-        return vertex_alloc_.has_room(vertices) && tet_alloc_.has_room(tets);
+    bool has_room(index_t vertices, index_t tets, unsigned pool) const noexcept {
+        return vertex_alloc_.has_room(vertices, pool) && tet_alloc_.has_room(tets, pool);
     }
 
     // ---- journaled mutation ----
 
     // Slots are reused as in indexed_tet; a reused tet slot keeps counting versions.
     index_t add_vertex(undo_log& log) {
-        const auto [v, source] = vertex_alloc_.acquire(vertex_slots());
+        const auto [v, source] = vertex_alloc_.acquire(vertex_slots(), log.pool);
         if (source == detail::slot_source::appended)
             anchor_.push_back(invalid_index), valive_.push_back(1);
         else
@@ -301,7 +304,7 @@ public:
     }
 
     index_t add_tet(const tet_indices& t, undo_log& log) {
-        const auto [id, source] = tet_alloc_.acquire(tet_slots());
+        const auto [id, source] = tet_alloc_.acquire(tet_slots(), log.pool);
         log.push(undo_entry::what::tet_acquired, id, index_t(source));
         if (source == detail::slot_source::appended) {
             tets_.push_back({t, dead_links(), 0});
@@ -420,14 +423,15 @@ public:
                 anchor_[e.a] = e.b;
                 break;
             case w::tet_acquired:
-                if (tet_alloc_.undo_acquire(e.a, detail::slot_source(e.b), tet_slots()))
+                if (tet_alloc_.undo_acquire(e.a, detail::slot_source(e.b), tet_slots(), log.pool))
                     tets_.pop_back();
                 break;
             case w::tet_released:
                 tet_alloc_.undo_release(e.a);
                 break;
             case w::vertex_acquired:
-                if (vertex_alloc_.undo_acquire(e.a, detail::slot_source(e.b), vertex_slots()))
+                if (vertex_alloc_.undo_acquire(e.a, detail::slot_source(e.b), vertex_slots(),
+                                               log.pool))
                     anchor_.pop_back(), valive_.pop_back();
                 else
                     valive_[e.a] = 0;

@@ -134,6 +134,9 @@ public:
         void clear() noexcept { entries_.clear(), pending_.clear(); }
         std::span<const undo_entry> entries() const noexcept { return entries_; }
 
+        /// The slot pool new simplices come from (see detail::undo_list).
+        unsigned pool = 0;
+
     private:
         friend class corner_table_tri;
         struct pending_half {
@@ -366,7 +369,7 @@ public:
 
     /// As indexed_tri: prepares for `workers` concurrent workers that may add simplices.
     /// The arrays grow once, here, by that many dead slots, dealt out to per-worker pools
-    /// (detail::worker_index picks the pool): no reallocation, no atomics. Recycling is
+    /// (the undo log's `pool` picks one): no reallocation, no atomics. Recycling is
     /// off until end_parallel.
     void begin_parallel(unsigned workers, index_t extra_vertices, index_t extra_faces) {
         const index_t nv = vertex_alloc_.begin_parallel(workers, vertex_slots(), extra_vertices);
@@ -382,9 +385,9 @@ public:
     }
     /// Unused pool slots become ordinary recyclable dead slots again.
     void end_parallel() { vertex_alloc_.end_parallel(), face_alloc_.end_parallel(); }
-    /// Whether this worker's pool can serve an operation adding these many simplices.
-    bool has_room(index_t vertices, index_t faces) const noexcept {
-        return vertex_alloc_.has_room(vertices) && face_alloc_.has_room(faces);
+    /// Whether slot pool `pool` can serve an operation adding these many simplices.
+    bool has_room(index_t vertices, index_t faces, unsigned pool) const noexcept {
+        return vertex_alloc_.has_room(vertices, pool) && face_alloc_.has_room(faces, pool);
     }
 
     // ---- journaled mutation ----
@@ -393,7 +396,7 @@ public:
     // else dead slots newest first (when recycling is on), else appended. A reused face
     // slot keeps counting versions, so old tuples to it stay stale.
     index_t add_vertex(undo_log& log) {
-        const auto [v, source] = vertex_alloc_.acquire(vertex_slots());
+        const auto [v, source] = vertex_alloc_.acquire(vertex_slots(), log.pool);
         if (source == detail::slot_source::appended)
             anchor_.push_back(invalid_index), valive_.push_back(1);
         else
@@ -408,7 +411,7 @@ public:
     }
 
     index_t add_face(const tri_indices& f, undo_log& log) {
-        const auto [id, source] = face_alloc_.acquire(face_slots());
+        const auto [id, source] = face_alloc_.acquire(face_slots(), log.pool);
         log.push(undo_entry::what::face_acquired, id, index_t(source));
         if (source == detail::slot_source::appended) {
             faces_.push_back({f, 0, {invalid_index, invalid_index, invalid_index}, 0});
@@ -508,14 +511,15 @@ public:
                 anchor_[e.a] = e.b;
                 break;
             case w::face_acquired:
-                if (face_alloc_.undo_acquire(e.a, detail::slot_source(e.b), face_slots()))
+                if (face_alloc_.undo_acquire(e.a, detail::slot_source(e.b), face_slots(), log.pool))
                     faces_.pop_back();
                 break;
             case w::face_released:
                 face_alloc_.undo_release(e.a);
                 break;
             case w::vertex_acquired:
-                if (vertex_alloc_.undo_acquire(e.a, detail::slot_source(e.b), vertex_slots()))
+                if (vertex_alloc_.undo_acquire(e.a, detail::slot_source(e.b), vertex_slots(),
+                                               log.pool))
                     anchor_.pop_back(), valive_.pop_back();
                 else
                     valive_[e.a] = 0;

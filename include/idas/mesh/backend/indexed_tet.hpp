@@ -36,7 +36,7 @@ public:
         tet_indices verts{};
         version_t version = 0;
     };
-    using undo_log = std::vector<undo_entry>;
+    using undo_log = detail::undo_list<undo_entry>;
 
     // A vertex of a good-quality mesh has 20-30 tets; most lists stay inline.
     static constexpr std::size_t inline_tets = 28;
@@ -106,8 +106,8 @@ public:
 
     /// Prepares for `workers` concurrent workers that may add simplices: the arrays grow
     /// once, here, by the given number of dead slots, dealt out to per-worker pools. A
-    /// worker's add_* then takes from its own pool (detail::worker_index): no reallocation,
-    /// no atomics. Recycling is off until end_parallel.
+    /// worker's add_* then takes from the pool its undo log names (`log.pool`): no
+    /// reallocation, no atomics. Recycling is off until end_parallel.
     void begin_parallel(unsigned workers, index_t extra_vertices, index_t extra_tets) {
         const index_t nv = vertex_alloc_.begin_parallel(workers, vertex_slots(), extra_vertices);
         const index_t nt = tet_alloc_.begin_parallel(workers, tet_slots(), extra_tets);
@@ -122,9 +122,9 @@ public:
     }
     /// Unused pool slots become ordinary recyclable dead slots again.
     void end_parallel() { vertex_alloc_.end_parallel(), tet_alloc_.end_parallel(); }
-    /// Whether this worker's pool can serve an operation adding these many simplices.
-    bool has_room(index_t vertices, index_t tets) const noexcept {
-        return vertex_alloc_.has_room(vertices) && tet_alloc_.has_room(tets);
+    /// Whether slot pool `pool` can serve an operation adding these many simplices.
+    bool has_room(index_t vertices, index_t tets, unsigned pool) const noexcept {
+        return vertex_alloc_.has_room(vertices, pool) && tet_alloc_.has_room(tets, pool);
     }
 
     // ---- journaled mutation ----
@@ -133,7 +133,7 @@ public:
     // or appended). A recycled tet slot keeps counting versions, so old tuples to it stay
     // stale.
     index_t add_vertex(undo_log& log) {
-        const auto [v, source] = vertex_alloc_.acquire(vertex_slots());
+        const auto [v, source] = vertex_alloc_.acquire(vertex_slots(), log.pool);
         if (source == detail::slot_source::appended)
             vt_.emplace_back(), valive_.push_back(1);
         else
@@ -147,7 +147,7 @@ public:
         log.push_back({undo_entry::what::vertex_released, v, index_t(vertex_alloc_.release(v))});
     }
     index_t add_tet(const tet_indices& t, undo_log& log) {
-        const auto [id, source] = tet_alloc_.acquire(tet_slots());
+        const auto [id, source] = tet_alloc_.acquire(tet_slots(), log.pool);
         log.push_back({undo_entry::what::tet_acquired, id, index_t(source)});
         if (source == detail::slot_source::appended) {
             tv_.push_back(t);
@@ -194,14 +194,15 @@ public:
                 tv_[e.a] = e.verts, set_version(e.a, e.version);
                 break;
             case w::tet_acquired:
-                if (tet_alloc_.undo_acquire(e.a, detail::slot_source(e.b), tet_slots()))
+                if (tet_alloc_.undo_acquire(e.a, detail::slot_source(e.b), tet_slots(), log.pool))
                     tv_.pop_back(), version_.pop_back();
                 break;
             case w::tet_released:
                 tet_alloc_.undo_release(e.a);
                 break;
             case w::vertex_acquired:
-                if (vertex_alloc_.undo_acquire(e.a, detail::slot_source(e.b), vertex_slots()))
+                if (vertex_alloc_.undo_acquire(e.a, detail::slot_source(e.b), vertex_slots(),
+                                               log.pool))
                     vt_.pop_back(), valive_.pop_back();
                 else
                     valive_[e.a] = 0;

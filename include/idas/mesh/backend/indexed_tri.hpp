@@ -35,7 +35,7 @@ public:
         tri_indices verts{};
         version_t version = 0;
     };
-    using undo_log = std::vector<undo_entry>;
+    using undo_log = detail::undo_list<undo_entry>;
 
     // Inline capacity covers the valences met in practice (a regular vertex has 6), so
     // incidence lists rarely touch the heap.
@@ -102,7 +102,7 @@ public:
 
     /// Prepares for `workers` concurrent workers that may add simplices: the arrays grow
     /// once, here, by the given number of dead slots, which are dealt out to per-worker
-    /// pools. A worker's add_* then takes from its own pool (detail::worker_index): no
+    /// pools. An add_* then takes from the pool its undo log names (`log.pool`): no
     /// reallocation, no atomics. Recycling is off until end_parallel.
     void begin_parallel(unsigned workers, index_t extra_vertices, index_t extra_faces) {
         const index_t nv = vertex_alloc_.begin_parallel(workers, vertex_slots(), extra_vertices);
@@ -118,9 +118,9 @@ public:
     }
     /// Unused pool slots become ordinary recyclable dead slots again.
     void end_parallel() { vertex_alloc_.end_parallel(), face_alloc_.end_parallel(); }
-    /// Whether this worker's pool can serve an operation adding these many simplices.
-    bool has_room(index_t vertices, index_t faces) const noexcept {
-        return vertex_alloc_.has_room(vertices) && face_alloc_.has_room(faces);
+    /// Whether slot pool `pool` can serve an operation adding these many simplices.
+    bool has_room(index_t vertices, index_t faces, unsigned pool) const noexcept {
+        return vertex_alloc_.has_room(vertices, pool) && face_alloc_.has_room(faces, pool);
     }
 
     // ---- journaled mutation ----
@@ -129,7 +129,7 @@ public:
     // or appended). A recycled face slot keeps counting versions, so old tuples to it
     // stay stale.
     index_t add_vertex(undo_log& log) {
-        const auto [v, source] = vertex_alloc_.acquire(vertex_slots());
+        const auto [v, source] = vertex_alloc_.acquire(vertex_slots(), log.pool);
         if (source == detail::slot_source::appended)
             vf_.emplace_back(), valive_.push_back(1);
         else
@@ -143,7 +143,7 @@ public:
         log.push_back({undo_entry::what::vertex_released, v, index_t(vertex_alloc_.release(v))});
     }
     index_t add_face(const tri_indices& f, undo_log& log) {
-        const auto [id, source] = face_alloc_.acquire(face_slots());
+        const auto [id, source] = face_alloc_.acquire(face_slots(), log.pool);
         log.push_back({undo_entry::what::face_acquired, id, index_t(source)});
         if (source == detail::slot_source::appended) {
             fv_.push_back(f);
@@ -190,14 +190,15 @@ public:
                 fv_[e.a] = e.verts, set_version(e.a, e.version);
                 break;
             case w::face_acquired:
-                if (face_alloc_.undo_acquire(e.a, detail::slot_source(e.b), face_slots()))
+                if (face_alloc_.undo_acquire(e.a, detail::slot_source(e.b), face_slots(), log.pool))
                     fv_.pop_back(), version_.pop_back();
                 break;
             case w::face_released:
                 face_alloc_.undo_release(e.a);
                 break;
             case w::vertex_acquired:
-                if (vertex_alloc_.undo_acquire(e.a, detail::slot_source(e.b), vertex_slots()))
+                if (vertex_alloc_.undo_acquire(e.a, detail::slot_source(e.b), vertex_slots(),
+                                               log.pool))
                     vf_.pop_back(), valive_.pop_back();
                 else
                     valive_[e.a] = 0;

@@ -91,6 +91,16 @@ private:
     std::vector<std::size_t> next_, end_;
 };
 
+/// The undo log of a backend whose log is a plain list of entries, with the slot pool its
+/// operations' new simplices come from. Every backend's log carries `pool`: the executor
+/// sets it in the operation's context (op_context::conn) to the parallel worker's pool, or
+/// in a deterministic round to the operation's own; 0 outside parallel phases. So the
+/// backends read it from the log they are handed, never from the running thread.
+template <class Entry>
+struct undo_list : std::vector<Entry> {
+    unsigned pool = 0;
+};
+
 /// How slot_allocator::acquire found a slot: what undoing it takes.
 enum class slot_source : std::uint8_t {
     appended, // one past the end: the backend grows its arrays (and shrinks them on undo)
@@ -118,10 +128,10 @@ public:
     void set_recycling(bool on) noexcept { recycle_ = on; }
 
     /// A slot for a new simplex, `slots` being the backend's current slot count: in a
-    /// parallel phase from this worker's pool (detail::worker_index), else the newest dead
-    /// slot if recycling is on, else `slots` itself (appended: the backend grows).
-    acquired acquire(index_t slots) noexcept {
-        if (parallel_) return {pool_.take(worker_index), slot_source::pooled};
+    /// parallel phase from pool `pool` (the operation's log says which), else the newest
+    /// dead slot if recycling is on, else `slots` itself (appended: the backend grows).
+    acquired acquire(index_t slots, unsigned pool) noexcept {
+        if (parallel_) return {pool_.take(pool), slot_source::pooled};
         if (recycle_ && !free_.empty()) {
             const index_t s = free_.back();
             free_.pop_back();
@@ -131,10 +141,11 @@ public:
     }
     /// Undoes acquire. Returns true if the slot was appended: the backend then drops its
     /// last slot (`slots` is its current slot count, checked to end with this one).
-    bool undo_acquire(index_t slot, slot_source source, [[maybe_unused]] index_t slots) {
+    bool undo_acquire(index_t slot, slot_source source, [[maybe_unused]] index_t slots,
+                      unsigned pool) {
         // Capacity is there: the slot came off the same list.
         if (source == slot_source::reused) free_.push_back(slot);
-        if (source == slot_source::pooled) pool_.give_back(worker_index, slot);
+        if (source == slot_source::pooled) pool_.give_back(pool, slot);
         assert(source != slot_source::appended || slot + 1 == slots);
         return source == slot_source::appended;
     }
@@ -170,9 +181,9 @@ public:
         recycle_ = true;
         pool_.release(free_);
     }
-    /// Whether this worker can acquire `n` slots (always, outside a parallel phase).
-    bool has_room(index_t n) const noexcept {
-        return !parallel_ || pool_.available(worker_index) >= n;
+    /// Whether pool `pool` can hand out `n` slots (always, outside a parallel phase).
+    bool has_room(index_t n, unsigned pool) const noexcept {
+        return !parallel_ || pool_.available(pool) >= n;
     }
     std::size_t available(unsigned worker) const noexcept { return pool_.available(worker); }
 
