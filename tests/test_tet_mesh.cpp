@@ -1,5 +1,6 @@
 // Construction, navigation, ids, iteration, boundary queries, attributes and export of
 // the tetrahedral core.
+#include "slot_pool_check.hpp"
 #include "tet_support.hpp"
 
 #include <algorithm>
@@ -320,22 +321,7 @@ TEST_CASE_TEMPLATE(
 
 TEST_CASE_TEMPLATE("tet mesh: new simplices come from the slot pool their undo log names", Mesh,
                    IDAS_TET_MESHES) {
-    // As for triangle meshes: the pool is the log's, set by the executor, not the thread's.
     Mesh m(unit_tet, {{0, 1, 2, 3}});
-    const index_t v0 = m.vertex_slots();
-    m.begin_parallel(2, 4, 4); // new vertex slots v0, v0 + 1 (pool 0) and v0 + 2, v0 + 3 (pool 1)
-    typename Mesh::undo_log first, second;
-    first.pool = 0, second.pool = 1;
-    CHECK(m.has_room(2, 2, 1));
-    CHECK_FALSE(m.has_room(3, 0, 1));
-    CHECK(m.add_vertex(second) == v0 + 2);
-    CHECK(m.add_vertex(first) == v0);
-    m.rollback(second, 0);
-    CHECK(m.has_room(2, 0, 1));
-    CHECK(m.add_vertex(second) == v0 + 2);
-    m.rollback(second, 0);
-    m.rollback(first, 0);
-    m.end_parallel();
-    CHECK(m.n_vertices() == 4);
+    idas::test::check_slots_come_from_the_logs_pool(m);
     CHECK_FALSE(find_inconsistency(m, true).has_value());
 }

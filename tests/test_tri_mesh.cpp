@@ -1,4 +1,5 @@
 // Navigation, operations, invariants and rollback of the triangle-mesh core.
+#include "slot_pool_check.hpp"
 #include "test_support.hpp"
 
 #include <algorithm>
@@ -434,27 +435,7 @@ TEST_CASE_TEMPLATE("raw edits keep neighbours right, also across boundaries made
 
 TEST_CASE_TEMPLATE("new simplices come from the slot pool their undo log names", Mesh,
                    IDAS_TRI_MESHES) {
-    // The executor sets each operation's pool in its context (op_context::conn.pool); a
-    // backend takes it from the log it is handed, never from the running thread. Two logs
-    // of two pools on one thread take slots from their own pools and give them back there.
     auto m = octahedron<Mesh>();
-    const index_t v0 = m.vertex_slots();
-    m.begin_parallel(2, 4, 8); // new vertex slots v0, v0 + 1 (pool 0) and v0 + 2, v0 + 3 (pool 1)
-    typename Mesh::undo_log first, second;
-    first.pool = 0, second.pool = 1;
-    CHECK(m.has_room(2, 4, 1));
-    CHECK_FALSE(m.has_room(3, 0, 1));
-    CHECK(m.add_vertex(second) == v0 + 2);
-    CHECK(m.add_vertex(first) == v0);
-    CHECK(m.add_vertex(second) == v0 + 3);
-    CHECK_FALSE(m.has_room(1, 0, 1));
-    CHECK(m.has_room(1, 0, 0));
-    m.rollback(second, 0); // both of pool 1's slots go back to pool 1
-    CHECK(m.has_room(2, 0, 1));
-    CHECK(m.add_vertex(second) == v0 + 2);
-    m.rollback(second, 0);
-    m.rollback(first, 0);
-    m.end_parallel();
-    CHECK(m.n_vertices() == 6);
+    idas::test::check_slots_come_from_the_logs_pool(m);
     CHECK_FALSE(find_inconsistency(m).has_value());
 }

@@ -34,6 +34,7 @@
 #include <memory>
 #include <span>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 namespace idas::lock {
@@ -105,6 +106,10 @@ class deterministic_engine {
         op_context<Mesh>* ctx = &own_ctx;
         std::vector<std::vector<entry>> out = std::vector<std::vector<entry>>(K);
         run_report report;
+        // Vertices already in the region being recorded (record_regions): region_seen[v]
+        // equals region_tag. 16 bits a vertex; cleared when the tag wraps.
+        std::vector<std::uint16_t> region_seen;
+        std::uint16_t region_tag = 0;
     };
     /// What became of a candidate this round; all but `ran` go back to their shard.
     enum class fate : std::uint8_t { waits, beaten, blocked, won_now, wins, ran };
@@ -308,6 +313,7 @@ private:
             for (std::size_t v = 0; v < mark_size_; ++v)
                 marks_[v].store(0, std::memory_order_relaxed), taken_[v] = 0;
         }
+        record_regions();
         winners_.clear();
         for (unsigned pass = 0; pass < max_passes; ++pass) {
             const std::size_t before = winners_.size();
@@ -457,10 +463,14 @@ private:
     // ------------------------------------------------------------ helpers ----
 
     /// Candidates per round: a fixed share of the mesh, never a function of the threads.
+    /// Small: the winners of a round level off at a few hundred whatever the round size
+    /// (the best candidates crowd together), and every loser is walked again next round,
+    /// so a large round mostly adds work (armadillo x16, QSlim to 10%, 2 threads: 1,000
+    /// candidates 14.3 s, the earlier 1/64 of the cells 28.5 s; bench/RESULTS.md).
     std::size_t round_size() const {
         if (run_.options().round_size > 0) return run_.options().round_size;
         const std::size_t cells = static_cast<std::size_t>(std::max<std::int64_t>(live_.faces, 0));
-        return std::clamp<std::size_t>(cells / 64, 1024, 65536);
+        return std::clamp<std::size_t>(cells / 1024, 1024, 65536);
     }
 
     /// Candidate a is better than candidate b: pops first, or the same entry queued
@@ -472,16 +482,60 @@ private:
         return a < b;
     }
 
-    /// Walks candidate i's lock region with `take` (claim.hpp), stopping at its first
-    /// false. The mesh does not change while regions are walked.
-    template <class Take>
-    bool walk_region(std::size_t i, Take& take) {
-        bool ok = true;
-        tuple t = cand_[i].tuple;
-        ops::dispatch(cand_[i].kind, [&](auto op) {
-            ok = claim_footprint<decltype(op)>(spec_, m_, t, take) == claim_result::ok;
+    /// Finds every candidate's lock region (claim.hpp) once per round, in the order a
+    /// claim takes it, each vertex once (a claim takes a star's vertices once per cell
+    /// around it: three to four times). The passes walk each region two to four times,
+    /// and the walk itself (stars, and the grid cells of an invariant that claims space)
+    /// cost more than the passes. The mesh does not change while the winners are chosen,
+    /// so the regions stay as found. Every use of a region (mark, held, free, take) asks
+    /// the same of a word each time it comes, so dropping repeats changes no answer.
+    /// Stored per block of `region_block` candidates, each block filled by one thread;
+    /// the buffers keep their capacity from round to round.
+    void record_regions() {
+        const std::size_t n = cand_.size();
+        const std::size_t blocks = (n + region_block - 1) / region_block;
+        if (region_words_.size() < blocks) region_words_.resize(blocks);
+        region_of_.resize(n);
+        const index_t vertices = m_.vertex_slots();
+        parallel_chunks(pool_, n, region_block, [&](std::size_t b, std::size_t e, unsigned th) {
+            thread_state& me = *threads_[th];
+            if (me.region_seen.size() < vertices) me.region_seen.assign(vertices, 0);
+            for (std::size_t i = b; i < e; ++i) {
+                auto& words = region_words_[i / region_block];
+                if (i % region_block == 0) words.clear();
+                if (++me.region_tag == 0) {
+                    std::fill(me.region_seen.begin(), me.region_seen.end(), std::uint16_t(0));
+                    me.region_tag = 1;
+                }
+                const auto from = static_cast<std::uint32_t>(words.size());
+                auto record = [&](index_t v) {
+                    if (v < vertices) {
+                        if (me.region_seen[v] == me.region_tag) return true;
+                        me.region_seen[v] = me.region_tag;
+                    }
+                    return words.push_back(v), true;
+                };
+                bool ok = false;
+                tuple t = cand_[i].tuple;
+                ops::dispatch(cand_[i].kind, [&](auto op) {
+                    ok = claim_footprint<decltype(op)>(spec_, m_, t, record) == claim_result::ok;
+                });
+                region_of_[i] = {from,
+                                 ok ? static_cast<std::uint32_t>(words.size() - from) : no_region};
+            }
         });
-        return ok;
+    }
+
+    /// Walks candidate i's lock region with `take`, stopping at its first false (false
+    /// too if its claim could not be made at all).
+    template <class Take>
+    bool walk_region(std::size_t i, Take& take) const {
+        const auto [from, count] = region_of_[i];
+        if (count == no_region) return false;
+        const index_t* words = region_words_[i / region_block].data() + from;
+        for (std::uint32_t k = 0; k < count; ++k)
+            if (!take(words[k])) return false;
+        return true;
     }
 
     /// Moves a vertex entry whose tuple went stale to a current tuple of its vertex; false
@@ -523,6 +577,12 @@ private:
     std::vector<std::uint8_t> cand_shard_;
     std::vector<fate> fate_;
     std::vector<std::size_t> winners_;
+    // Each candidate's lock region this round (record_regions): where it starts in its
+    // block's words, and how many (no_region: the claim failed).
+    static constexpr std::size_t region_block = 256;
+    static constexpr std::uint32_t no_region = ~std::uint32_t(0);
+    std::vector<std::vector<index_t>> region_words_;
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> region_of_;
     std::vector<index_t> vertex_quota_, cell_quota_;
     std::vector<std::int64_t> face_delta_, vertex_delta_;
     std::unique_ptr<std::atomic<std::uint64_t>[]> marks_;

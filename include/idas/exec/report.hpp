@@ -35,7 +35,7 @@ struct exec_options {
     /// Set by the executor for a deterministic lock policy: a spec's `prepare` must then
     /// not plan by thread count (the result may not depend on it).
     bool deterministic = false;
-    /// Deterministic rounds: candidates per round (0: a 64th of the live cells, clamped
+    /// Deterministic rounds: candidates per round (0: a 1024th of the live cells, clamped
     /// to [1024, 65536]). Part of the result: the same value gives the same mesh.
     unsigned round_size = 0;
 };
