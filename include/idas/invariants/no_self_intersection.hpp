@@ -415,6 +415,7 @@ private:
             if (e.face == f) return true;
         return false;
     }
+
     /// Moves the changed faces in the index: out of their old cells, into their new ones.
     template <class Made, class Ranges>
     bool commit(const state& s, const Made& made, const Ranges& ranges) const {
