@@ -19,6 +19,19 @@ using namespace idas::algorithms;
 namespace {
 
 using entry = queue_entry<tri_tuple>;
+/// What the deterministic engine queues: ties taken in tie-hash order.
+struct spread_entry : entry {
+    static constexpr bool spreads_ties = true;
+};
+static_assert(!spreads_ties<entry> && spreads_ties<spread_entry>);
+
+template <class E>
+E as(const entry& e) {
+    if constexpr (std::is_same_v<E, entry>)
+        return e;
+    else
+        return E{e};
+}
 
 /// Random priorities over many octaves and both signs, with exact ties, zeros,
 /// infinities and subnormals: every case the bucketed queue maps to buckets.
@@ -38,29 +51,30 @@ double random_priority(std::mt19937& rng) {
     }
 }
 
-template <class Policy>
+template <class Policy, class E = entry>
 void check_against_reference(unsigned seed) {
     std::mt19937 rng(seed);
-    typename Policy::template type<entry> q;
-    // The order every heap promises: priority, then the hash of the tuple's tie key, then
-    // face id and local edge.
+    typename Policy::template type<E> q;
+    // The order every heap promises: priority, then (entries that spread ties) the hash of
+    // the tuple's tie key, then face id and local edge.
     using key = std::tuple<double, std::uint64_t, index_t, std::uint8_t>;
     std::multiset<key> ref;
-    auto key_of = [](const entry& e) {
-        return key{e.priority, tie_hash(tie_key(e.tuple)), e.tuple.fid, e.tuple.local_edge};
+    auto key_of = [](const E& e) {
+        const std::uint64_t h = spreads_ties<E> ? tie_hash(tie_key(e.tuple)) : 0;
+        return key{e.priority, h, e.tuple.fid, e.tuple.local_edge};
     };
     for (int round = 0; round < 3; ++round) {
         for (int step = 0; step < 20000; ++step) {
             const unsigned r = rng() % 16;
             if (r < 9) {
-                const entry e{random_priority(rng),
-                              {0, index_t(rng() % 500), std::uint8_t(rng() % 3), 0},
-                              0,
-                              0};
+                const E e = as<E>({random_priority(rng),
+                                   {0, index_t(rng() % 500), std::uint8_t(rng() % 3), 0},
+                                   0,
+                                   0});
                 q.push(e);
                 ref.insert(key_of(e));
             } else if (r < 15) {
-                entry e{};
+                E e{};
                 const bool got = q.pop(e);
                 REQUIRE(got == !ref.empty());
                 if (got) {
@@ -70,14 +84,14 @@ void check_against_reference(unsigned seed) {
             } else if (rng() % 64 == 0) {
                 // A sweep removes exactly what the predicate names and keeps the order.
                 const index_t mod = 2 + rng() % 5;
-                q.erase_if([&](const entry& e) { return e.tuple.fid % mod == 0; });
+                q.erase_if([&](const E& e) { return e.tuple.fid % mod == 0; });
                 std::erase_if(ref, [&](const key& k) { return std::get<2>(k) % mod == 0; });
             }
             REQUIRE(q.size() == ref.size());
         }
         q.clear();
         ref.clear();
-        entry e{};
+        E e{};
         CHECK_FALSE(q.pop(e));
         CHECK(q.size() == 0);
     }
@@ -92,6 +106,9 @@ TEST_CASE("queue policies: every heap pops in the reference order, also after sw
         check_against_reference<queue::dary_heap<4>>(seed);
         check_against_reference<queue::bucket_heap<>>(seed);
         check_against_reference<queue::bucket_heap<12>>(seed); // whole octaves per bucket
+        check_against_reference<queue::binary_heap, spread_entry>(seed);
+        check_against_reference<queue::dary_heap<4>, spread_entry>(seed);
+        check_against_reference<queue::bucket_heap<>, spread_entry>(seed);
     }
 }
 
@@ -99,29 +116,44 @@ TEST_CASE_TEMPLATE("queue policies: pops depend on what was pushed, not on the o
                    queue::binary_heap, queue::dary_heap<4>, queue::bucket_heap<>) {
     // Entries that differ only in vertex, version or kind, with tied priorities: what the
     // deterministic rounds rely on when threads push in any order.
-    std::vector<entry> all;
-    for (index_t f = 0; f < 40; ++f)
-        for (index_t v = 0; v < 3; ++v)
-            all.push_back({double(f % 3),
-                           {v, f, std::uint8_t(f % 3), version_t(v % 2)},
-                           std::uint8_t(v % 2),
-                           0});
-    std::mt19937 rng(5);
-    std::vector<std::vector<entry>> popped;
-    for (int order = 0; order < 4; ++order) {
-        std::shuffle(all.begin(), all.end(), rng);
-        typename Q::template type<entry> q;
-        for (const entry& e : all) q.push(e);
-        auto& out = popped.emplace_back();
-        for (entry e{}; q.pop(e);) out.push_back(e);
-        REQUIRE(out.size() == all.size());
-        for (std::size_t i = 1; i < out.size(); ++i) CHECK_FALSE(pops_before(out[i], out[i - 1]));
-    }
-    for (const auto& out : popped)
-        for (std::size_t i = 0; i < out.size(); ++i) {
-            CHECK(out[i].tuple == popped[0][i].tuple);
-            CHECK(out[i].kind == popped[0][i].kind);
+    auto check = [](auto kind) {
+        using E = decltype(kind);
+        std::vector<E> all;
+        for (index_t f = 0; f < 40; ++f)
+            for (index_t v = 0; v < 3; ++v)
+                all.push_back(as<E>({double(f % 3),
+                                     {v, f, std::uint8_t(f % 3), version_t(v % 2)},
+                                     std::uint8_t(v % 2),
+                                     0}));
+        std::mt19937 rng(5);
+        std::vector<std::vector<E>> popped;
+        for (int order = 0; order < 4; ++order) {
+            std::shuffle(all.begin(), all.end(), rng);
+            typename Q::template type<E> q;
+            for (const E& e : all) q.push(e);
+            auto& out = popped.emplace_back();
+            for (E e{}; q.pop(e);) out.push_back(e);
+            REQUIRE(out.size() == all.size());
+            for (std::size_t i = 1; i < out.size(); ++i)
+                CHECK_FALSE(pops_before(out[i], out[i - 1]));
         }
+        for (const auto& out : popped)
+            for (std::size_t i = 0; i < out.size(); ++i) {
+                CHECK(out[i].tuple == popped[0][i].tuple);
+                CHECK(out[i].kind == popped[0][i].kind);
+            }
+        return popped[0];
+    };
+    const auto by_slot = check(entry{});
+    const auto spread = check(spread_entry{});
+    // The two tie-breaks differ: by slot, equal priorities come in face order.
+    bool same = true;
+    for (std::size_t i = 0; i < by_slot.size(); ++i)
+        same = same && by_slot[i].tuple == spread[i].tuple;
+    CHECK_FALSE(same);
+    for (std::size_t i = 1; i < by_slot.size(); ++i)
+        if (by_slot[i].priority == by_slot[i - 1].priority)
+            CHECK(by_slot[i - 1].tuple.fid <= by_slot[i].tuple.fid);
 }
 
 TEST_CASE("queue policies: fifo pops in push order and sweeps keep it") {

@@ -100,11 +100,17 @@ void for_each_edge_from(const Mesh& m, index_t v, Fn&& fn) {
 /// Every edge once, by its canonical tuple (the initial queue of a decimation).
 template <class Op, class Mesh, class Push>
 void push_all_edges(const Mesh& m, Push& push) {
-    m.for_each_edge([&](const typename Mesh::tuple& t) {
-        if (runs_upwards(m, t)) return push(Op{}, t);
-        const auto g = m.switch_face(t);
-        push(Op{}, g ? *g : t);
-    });
+    // As for_each_edge (an edge is seen from its smaller half-edge slot), but with one
+    // search for the face across per half-edge where for_each_edge and switch_face take two.
+    for (index_t f = 0; f < m.face_slots(); ++f) {
+        if (!m.face_alive(f)) continue;
+        for (std::uint8_t le = 0; le < 3; ++le) {
+            const auto t = m.tuple_from_edge(f, le);
+            const auto across = m.switch_face(t);
+            if (across && 3 * across->fid + across->local_edge < 3 * f + le) continue;
+            push(Op{}, runs_upwards(m, t) || !across ? t : *across);
+        }
+    }
 }
 
 /// After a collapse into a: every spoke (a, x), whose priority changed, and the

@@ -8,6 +8,16 @@
 #include <stdexcept>
 #include <string>
 
+/// For the few small functions on every operation's path (tuple checks, the heap's steps,
+/// the face across an edge): g++ stops inlining them into the executor's loop once that
+/// loop's body grows, which cost a serial decimation several percent more instructions
+/// (bench/RESULTS.md, "Executor refactoring (issue 15)", session 19).
+#if defined(__GNUC__)
+#define IDAS_ALWAYS_INLINE [[gnu::always_inline]] inline
+#else
+#define IDAS_ALWAYS_INLINE inline
+#endif
+
 namespace idas {
 
 /// Index of a vertex, edge, face or tet slot.

@@ -77,7 +77,10 @@ class deterministic_engine {
     using Mesh = typename Run::mesh_type;
     using Spec = typename Run::spec_type;
     using tuple = typename Run::tuple;
-    using entry = typename Run::entry;
+    /// The run's entry, with ties spread over the mesh (queue.hpp: spreads_ties).
+    struct entry : Run::entry {
+        static constexpr bool spreads_ties = true;
+    };
     using hooks = typename Run::hooks;
     using ops = typename Run::ops;
     using queue_policy = std::conditional_t<pops_in_priority_order<typename Run::queue_policy_type>,
@@ -166,7 +169,7 @@ private:
             each_shard([&](unsigned s, unsigned) {
                 auto& sh = shards_[s];
                 auto push = [&](auto op, const tuple& t) {
-                    sh.q.push(hooks::template make_entry<decltype(op)>(spec_, m_, t));
+                    sh.q.push(entry{hooks::template make_entry<decltype(op)>(spec_, m_, t)});
                     ++sh.report.pushed;
                 };
                 for (index_t v : by_shard[s]) hooks::initial_at(spec_, m_, v, push);
@@ -437,7 +440,8 @@ private:
                     }
                     ++me.report.succeeded;
                     auto push = [&](auto nop, const tuple& nt) {
-                        out.push_back(hooks::template make_entry<decltype(nop)>(spec_, m_, nt));
+                        out.push_back(
+                            entry{hooks::template make_entry<decltype(nop)>(spec_, m_, nt)});
                     };
                     hooks::template renew<Op>(spec_, m_, *r, push);
                 });

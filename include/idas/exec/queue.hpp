@@ -33,10 +33,7 @@ constexpr auto tie_key(const tet_tuple& t) noexcept {
                                         std::uint64_t(t.vid) << 32 | t.version};
 }
 
-/// A mix of a tie key (splitmix64's finaliser). Equal priorities are common (every edge
-/// of a flat region costs 0 in QSlim): ordered by slot, they would be taken in sweeps
-/// through neighbouring cells; ordered by this hash, they are spread over the mesh, so a
-/// deterministic round finds more of them that do not overlap.
+/// A mix of a tie key (splitmix64's finaliser).
 constexpr std::uint64_t tie_hash(const std::array<std::uint64_t, 2>& k) noexcept {
     std::uint64_t x = k[0] * 0x9e3779b97f4a7c15ULL ^ k[1];
     x ^= x >> 30, x *= 0xbf58476d1ce4e5b9ULL;
@@ -44,19 +41,41 @@ constexpr std::uint64_t tie_hash(const std::array<std::uint64_t, 2>& k) noexcept
     return x ^ (x >> 31);
 }
 
-/// The order every priority queue pops in: priority, then the tuple's tie hash and key,
-/// then the operation kind. Only identical entries compare equal, so the sequence of pops depends
-/// on what was pushed, not on the order of the pushes (what lets a deterministic run merge
-/// the pushes of its threads in any order).
+/// Whether entries of type E take equal priorities in tie-hash order, spread over the
+/// mesh, rather than by slot. Equal priorities are common (every edge of a flat region
+/// costs 0 in QSlim). By slot they are taken in sweeps through neighbouring cells, which
+/// the cache likes: QSlim to 10% of armadillo x4 runs 13% faster than in hash order
+/// (bench/RESULTS.md, "Executor refactoring (issue 15)", session 19). Spread, a
+/// deterministic round finds more of them that do not overlap, so its engine's entries
+/// say `spreads_ties`.
 template <class E>
-constexpr bool pops_before(const E& a, const E& b) noexcept {
-    if (a.priority != b.priority) return a.priority < b.priority;
+inline constexpr bool spreads_ties = requires {
+    requires E::spreads_ties;
+};
+
+/// How `pops_before` orders entries of equal priority: by tie key (spreads_ties: by its
+/// hash first), then kind.
+template <class E>
+constexpr bool tie_pops_before(const E& a, const E& b) noexcept {
     const auto ka = tie_key(a.tuple), kb = tie_key(b.tuple);
     if (ka != kb) {
-        const std::uint64_t ha = tie_hash(ka), hb = tie_hash(kb);
-        return ha != hb ? ha < hb : ka < kb;
+        if constexpr (spreads_ties<E>) {
+            const std::uint64_t ha = tie_hash(ka), hb = tie_hash(kb);
+            if (ha != hb) return ha < hb;
+        }
+        return ka < kb;
     }
     return a.kind < b.kind;
+}
+
+/// The order every priority queue pops in: priority, then the tie-break above. Only
+/// identical entries compare equal, so the sequence of pops depends on what was pushed, not
+/// on the order of the pushes (what lets a deterministic run merge the pushes of its threads
+/// in any order). Forced inline into the heaps' loops; the tie-break, rarer, is not.
+template <class E>
+IDAS_ALWAYS_INLINE constexpr bool pops_before(const E& a, const E& b) noexcept {
+    if (a.priority != b.priority) return a.priority < b.priority;
+    return tie_pops_before(a, b);
 }
 
 template <class Q, class E>
@@ -126,7 +145,7 @@ struct dary_heap {
     template <class E>
     class type {
     public:
-        void push(const E& e) {
+        [[gnu::flatten]] void push(const E& e) {
             std::size_t i = heap_.size();
             heap_.push_back(e);
             while (i > 0) {
@@ -137,7 +156,7 @@ struct dary_heap {
             }
             heap_[i] = e;
         }
-        bool pop(E& out) {
+        IDAS_ALWAYS_INLINE bool pop(E& out) {
             if (heap_.empty()) return false;
             out = heap_.front();
             const E last = heap_.back();

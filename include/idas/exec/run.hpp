@@ -185,13 +185,7 @@ public:
             }
             ++me.report.succeeded;
             on_success(Op{}, *r);
-            me.renewed.clear();
-            auto push = [&](auto nop, const tuple& t) {
-                me.renewed.push_back(hooks::template make_entry<decltype(nop)>(spec_, m_, t));
-            };
-            hooks::template renew<Op>(spec_, m_, *r, push);
-            claimer.release();
-            push_renewed<Shared>(me);
+            renew<Op, Shared>(me, *r, claimer);
             count_success<Shared>(me, ctx.face_delta - fd, ctx.vertex_delta - vd);
             outcome = step_outcome::succeeded;
             purge_if_bloated<Shared>(me);
@@ -226,7 +220,7 @@ public:
     /// A vertex operation is about its vertex, not the cell its tuple was made in: moving
     /// a neighbour renews that cell, which must not cancel the entry (a smoothing pass
     /// would skip two thirds of the vertices). Other entries go stale with their cell.
-    bool still_wanted(const entry& e) const noexcept {
+    IDAS_ALWAYS_INLINE bool still_wanted(const entry& e) const noexcept {
         if (m_.is_valid(e.tuple)) return true;
         return ops::acts_on_vertex(e.kind) && e.tuple.vid < m_.vertex_slots() &&
                m_.vertex_alive(e.tuple.vid);
@@ -253,16 +247,32 @@ private:
         while (!stopped() && me.q.pop(e)) step<false>(me, e, claimer, no_action{});
     }
 
-    template <bool Shared>
-    void push_renewed(worker& me) {
+    /// The spec's renewed entries after a success. Shared: made while the region is held
+    /// (they read it), pushed after it is released, under the queue's lock. Serial: straight
+    /// into the queue, in the same order.
+    template <class Op, bool Shared, class Claimer>
+    void renew(worker& me, const op_result<tuple>& r, Claimer& claimer) {
+        std::size_t pushed = 0;
         if constexpr (Shared) {
+            me.renewed.clear();
+            auto push = [&](auto nop, const tuple& t) {
+                me.renewed.push_back(hooks::template make_entry<decltype(nop)>(spec_, m_, t));
+            };
+            hooks::template renew<Op>(spec_, m_, r, push);
+            claimer.release();
             tbb::spin_mutex::scoped_lock lk(me.mutex);
             for (const auto& x : me.renewed) me.q.push(x);
+            pushed = me.renewed.size();
         } else {
-            for (const auto& x : me.renewed) me.q.push(x);
+            auto push = [&](auto nop, const tuple& t) {
+                me.q.push(hooks::template make_entry<decltype(nop)>(spec_, m_, t));
+                ++pushed;
+            };
+            hooks::template renew<Op>(spec_, m_, r, push);
+            claimer.release();
         }
-        me.report.pushed += me.renewed.size();
-        me.pushed_since_purge += me.renewed.size();
+        me.report.pushed += pushed;
+        me.pushed_since_purge += pushed;
     }
 
     /// After a success: the live counts and the stopping criterion. Serial: exact, after

@@ -24,16 +24,20 @@ vec3 face_normal_unnormalised(const Mesh& m, index_t f) {
 /// the sine of its smallest angle). No output face of the decimation tests comes near it.
 inline constexpr double sliver_ratio = 1e-6;
 
+/// Whether the triangle a, b, c with normal n = (b - a) x (c - a) is a sliver.
+inline bool is_sliver(const vec3& a, const vec3& b, const vec3& c, const vec3& n) {
+    const double longest2 =
+        std::max({squared_norm(b - a), squared_norm(c - b), squared_norm(a - c)});
+    return !(norm(n) > sliver_ratio * longest2);
+}
+
 /// Whether face f is a sliver (sliver_ratio).
 template <class Mesh>
 bool is_sliver(const Mesh& m, index_t f) {
     const auto& fv = m.face_vertices(f);
     const auto p = m.positions();
     const vec3 a = p[fv[0]], b = p[fv[1]], c = p[fv[2]];
-    const double longest2 =
-        std::max({squared_norm(b - a), squared_norm(c - b), squared_norm(a - c)});
-    const double twice_area = norm(cross(b - a, c - a));
-    return !(twice_area > sliver_ratio * longest2);
+    return is_sliver(a, b, c, cross(b - a, c - a));
 }
 
 struct no_normal_flip {
@@ -63,13 +67,18 @@ struct no_normal_flip {
 
     template <class Op, class Mesh, class Result>
     bool after(Op, const Mesh& m, const Result& r, state& s) const {
+        const auto p = m.positions();
         for (std::size_t i = 0; i < r.cells.size(); ++i) {
-            if (is_sliver(m, r.cells[i].fid)) return false;
+            // One normal per new face serves both tests.
+            const auto& fv = m.face_vertices(r.cells[i].fid);
+            const vec3 a = p[fv[0]], b = p[fv[1]], c = p[fv[2]];
+            const vec3 n = cross(b - a, c - a);
+            if (is_sliver(a, b, c, n)) return false;
             const index_t origin = r.origins[i];
             const auto it = std::find_if(s.normals.begin(), s.normals.end(),
                                          [&](const auto& e) { return e.first == origin; });
             if (it == s.normals.end()) continue;
-            if (!(dot(face_normal_unnormalised(m, r.cells[i].fid), it->second) > 0)) return false;
+            if (!(dot(n, it->second) > 0)) return false;
         }
         return true;
     }

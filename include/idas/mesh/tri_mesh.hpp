@@ -91,7 +91,7 @@ public:
     }
 
     /// False once the tuple's face was removed or changed by a later operation.
-    bool is_valid(const tuple& t) const noexcept {
+    IDAS_ALWAYS_INLINE bool is_valid(const tuple& t) const noexcept {
         if (t.fid >= face_slots() || t.local_edge > 2 || !conn_.face_alive(t.fid) ||
             conn_.face_version(t.fid) != t.version)
             return false;
@@ -102,7 +102,7 @@ public:
     index_t vid(const tuple& t) const noexcept { return t.vid; }
     index_t fid(const tuple& t) const noexcept { return t.fid; }
     /// Edge identity: the smaller of the edge's two half-edge slots.
-    index_t eid(const tuple& t) const noexcept {
+    IDAS_ALWAYS_INLINE index_t eid(const tuple& t) const noexcept {
         const index_t h = 3 * t.fid + t.local_edge;
         const auto [g, le] = opposite_edge(t);
         return g == invalid_index ? h : std::min(h, 3 * g + le);
@@ -125,7 +125,7 @@ public:
         return r;
     }
     /// Same vertex and edge, the other face; nothing on the boundary.
-    std::optional<tuple> switch_face(const tuple& t) const noexcept {
+    IDAS_ALWAYS_INLINE std::optional<tuple> switch_face(const tuple& t) const noexcept {
         const auto [g, le] = opposite_edge(t);
         if (g == invalid_index) return std::nullopt;
         return tuple{t.vid, g, le, conn_.face_version(g)};
@@ -136,7 +136,7 @@ public:
     }
     /// A manifold vertex is on the boundary iff its faces' fan is open: one more
     /// neighbour than faces.
-    bool is_boundary_vertex(index_t v) const noexcept {
+    IDAS_ALWAYS_INLINE bool is_boundary_vertex(index_t v) const noexcept {
         if constexpr (requires {
                           { conn_.is_boundary_vertex(v) } -> std::convertible_to<bool>;
                       }) {
@@ -361,7 +361,8 @@ private:
     /// The tuple's edge seen from the face across: that face and the edge's local index
     /// there, or {invalid_index, 0} on the boundary. A backend that stores opposite
     /// corners answers with one load; otherwise the face across is searched for.
-    std::pair<index_t, std::uint8_t> opposite_edge(const tuple& t) const noexcept {
+    IDAS_ALWAYS_INLINE std::pair<index_t, std::uint8_t>
+    opposite_edge(const tuple& t) const noexcept {
         if constexpr (requires {
                           {
                               conn_.opposite_edge(t.fid, t.local_edge)

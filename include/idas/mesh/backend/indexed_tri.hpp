@@ -75,7 +75,7 @@ public:
     }
 
     /// The face across local edge `le` of `f`, or invalid_index on the boundary.
-    index_t opposite_face(index_t f, std::uint8_t le) const noexcept {
+    IDAS_ALWAYS_INLINE index_t opposite_face(index_t f, std::uint8_t le) const noexcept {
         const index_t x = fv_[f][(le + 1) % 3], y = fv_[f][(le + 2) % 3];
         for (index_t g : vf_[x]) {
             if (g == f) continue;
