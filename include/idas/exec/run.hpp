@@ -253,23 +253,20 @@ private:
     template <class Op, bool Shared, class Claimer>
     void renew(worker& me, const op_result<tuple>& r, Claimer& claimer) {
         std::size_t pushed = 0;
+        if constexpr (Shared) me.renewed.clear();
+        auto push = [&](auto nop, const tuple& t) {
+            const entry e = hooks::template make_entry<decltype(nop)>(spec_, m_, t);
+            if constexpr (Shared)
+                me.renewed.push_back(e);
+            else
+                me.q.push(e);
+            ++pushed;
+        };
+        hooks::template renew<Op>(spec_, m_, r, push);
+        claimer.release();
         if constexpr (Shared) {
-            me.renewed.clear();
-            auto push = [&](auto nop, const tuple& t) {
-                me.renewed.push_back(hooks::template make_entry<decltype(nop)>(spec_, m_, t));
-            };
-            hooks::template renew<Op>(spec_, m_, r, push);
-            claimer.release();
             tbb::spin_mutex::scoped_lock lk(me.mutex);
             for (const auto& x : me.renewed) me.q.push(x);
-            pushed = me.renewed.size();
-        } else {
-            auto push = [&](auto nop, const tuple& t) {
-                me.q.push(hooks::template make_entry<decltype(nop)>(spec_, m_, t));
-                ++pushed;
-            };
-            hooks::template renew<Op>(spec_, m_, r, push);
-            claimer.release();
         }
         me.report.pushed += pushed;
         me.pushed_since_purge += pushed;
