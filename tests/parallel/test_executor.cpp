@@ -54,22 +54,37 @@ double relative_hausdorff(const Mesh& m, const Mesh& input) {
 
 // Not named "parallel...": its distance measure runs on oneTBB, whose joins ThreadSanitizer
 // cannot see in Debian's uninstrumented build, so scripts/test.sh's TSan pass leaves it out.
-TEST_CASE_TEMPLATE("QSlim on 4 threads is as close to the input as serial and hits the target",
-                   Mesh, IDAS_TRI_MESHES) {
+TEST_CASE_TEMPLATE("QSlim on 2 to 8 threads is as close to the input as serial", Mesh,
+                   IDAS_TRI_MESHES) {
     // Each part's queue orders only its own edges: run to the end in parallel, QSlim took
     // costly collapses in one part while cheap ones waited in another (the cube to 1%:
     // 0.06-0.4 of the diagonal on 4-8 threads, 1e-13 serially) and overshot the target.
-    // The cube's result is exact serially, so this does not depend on the run's luck.
+    // With the serial tail, a worker whose own part had run out of cheap collapses still
+    // moved a corner in about 1 run of 20 under load, while the other part's queue held
+    // thousands; it now takes that part's entries. The cube's result is exact serially, so
+    // this does not depend on the run's luck; several runs per thread count, because a
+    // race decides when it fails.
     const Mesh in = subdivided_cube<Mesh>(32);
-    Mesh serial = in, parallel = in;
+    Mesh serial = in;
     decimate<qslim<Mesh>>(serial, qslim_spec{}, 0.01, 1);
-    decimate<qslim<Mesh>>(parallel, qslim_spec{}, 0.01, 4);
-    const double h1 = relative_hausdorff(serial, in), h4 = relative_hausdorff(parallel, in);
-    CAPTURE(h1);
-    CHECK(h4 <= 1.1 * h1 + 1e-9);
+    const double h1 = relative_hausdorff(serial, in);
     const auto target = static_cast<double>(std::int64_t(double(in.n_faces()) * 0.01));
-    CHECK(std::abs(double(parallel.n_faces()) - target) <= std::max(1.0, 0.001 * target));
-    CHECK_FALSE(find_inconsistency(parallel).has_value());
+    for (unsigned threads : {2u, 4u, 8u}) {
+        for (int run = 0; run < 4; ++run) {
+            CAPTURE(threads);
+            CAPTURE(run);
+            Mesh parallel = in;
+            decimate<qslim<Mesh>>(parallel, qslim_spec{}, 0.01, threads);
+            const double h = relative_hausdorff(parallel, in);
+            CAPTURE(h1);
+            // The failure this guards against moved a corner (0.06-0.4); a collapse of
+            // rounding-sized cost moved the surface by up to 3e-8 (5 of 1,440 runs under load),
+            // which is still the cube.
+            CHECK(h <= 1.1 * h1 + 1e-6);
+            CHECK(std::abs(double(parallel.n_faces()) - target) <= std::max(1.0, 0.001 * target));
+            CHECK_FALSE(find_inconsistency(parallel).has_value());
+        }
+    }
 }
 
 TEST_CASE_TEMPLATE("serial decimation hits the target exactly and keeps topology", Mesh,

@@ -96,6 +96,10 @@ struct hooks {
             return false;
     }
 
+    /// Whether the spec wants a number of successes from parallel workers (`remaining`):
+    /// then which operations run before the goal is met matters, not only that each does.
+    static constexpr bool has_goal = remaining_hook<Spec>;
+
     /// Whether the spec stops on progress (a goal or a criterion). If not, parallel
     /// workers keep no shared live counts: one contended atomic add per success saved
     /// (the harmonic and remeshing phases run until their queues are empty).

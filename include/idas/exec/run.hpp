@@ -17,6 +17,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <mutex>
 #include <vector>
@@ -51,6 +52,12 @@ public:
         queue_type q;
         tbb::spin_mutex mutex; // taken by the owner on every access, by thieves to steal
         std::vector<entry> deferred;
+        double deferred_best = std::numeric_limits<double>::infinity(); // lowest priority there
+        // The priority of the owner's last pop (infinity once its queue ran dry), read by
+        // the other workers; and the level of the other parts above which the owner looks
+        // for a cheaper part again.
+        std::atomic<double> level{std::numeric_limits<double>::infinity()};
+        double others_checked_below = -std::numeric_limits<double>::infinity();
         std::vector<entry> renewed;
         op_context<Mesh> own_ctx;
         op_context<Mesh>* ctx = &own_ctx;
