@@ -159,9 +159,11 @@ struct soup_simplification_spec {
         return squared_norm(m.position(a) - m.position(b));
     }
 
+    /// The endpoint the survivor stands for: the frozen one if there is one.
     struct cache {
         vec3 position;
         std::uint8_t frozen;
+        index_t origin;
     };
     template <class Mesh>
     std::optional<cache> before(op::collapse_edge, const Mesh& m,
@@ -169,17 +171,23 @@ struct soup_simplification_spec {
         const auto [a, b] = m.edge_vertices(t);
         const auto fr = m.attribute(frozen);
         if (fr[a] && fr[b]) return std::nullopt;
-        return cache{m.position(fr[b] ? b : a), std::uint8_t(fr[a] | fr[b])};
+        const index_t kept = fr[b] ? b : a;
+        return cache{m.position(kept), std::uint8_t(fr[a] | fr[b]), m.attribute(origin)[kept]};
     }
     template <class Mesh>
     bool after(op::collapse_edge, Mesh& m, const op_result<typename Mesh::tuple>& r,
                const cache& c) const {
+        // The survivor is the tuple's vertex a; when b was the frozen end, a takes b's
+        // place, the soup vertex it stands for included.
         m.positions().set(r.anchor.vid, c.position);
         m.attribute(frozen).set(r.anchor.vid, c.frozen);
-        if (!c.frozen) return true;
-        // Once the copies are welded back, a new face through a cut vertex must not
-        // repeat a face: one of another sheet on three cut vertices, or one of this sheet
-        // through another copy of the same vertex.
+        m.attribute(origin).set(r.anchor.vid, c.origin);
+        // Once the copies are welded back, a new face must not repeat a face: one of
+        // another sheet on three cut vertices, or one of this sheet through another copy
+        // of a cut vertex. Only a face with a frozen corner can (the other vertices have
+        // one copy each), but the survivor need not be that corner: collapsing an inner
+        // edge next to a cut made 7 of 37989_sf's faces repeat others, which opened 6
+        // edges once the repeats were dropped.
         const auto fr = m.attribute(frozen);
         const auto src = m.attribute(origin);
         auto welded = [&](index_t f) {
@@ -190,7 +198,9 @@ struct soup_simplification_spec {
         };
         for (const auto& t : r.cells) {
             const auto& fv = m.face_vertices(t.fid);
-            if (fr[fv[0]] && fr[fv[1]] && fr[fv[2]]) return false;
+            const int frozen_corners = fr[fv[0]] + fr[fv[1]] + fr[fv[2]];
+            if (frozen_corners == 0) continue;
+            if (frozen_corners == 3) return false;
             const auto k = welded(t.fid);
             for (index_t x : fv)
                 for (index_t g : m.vertex_faces(x))
