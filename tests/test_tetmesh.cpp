@@ -166,6 +166,50 @@ TEST_CASE("triangle insertion: random soups of intersecting triangles (fixed see
     }
 }
 
+TEST_CASE("triangle insertion: orientation from doubles agrees with exact rationals") {
+    // Tets with rational corners (cut points: a + s (b - a) + t (c - a), off the plane by
+    // h), from coplanar to clearly off it, at unit size near the origin and 1e-3 in size
+    // at 1024 (where rounding a corner to doubles moves it by 1e-13, far more than the
+    // tet's own rounding error: a filter without the corners' ulps would guess there).
+    // The filter must never contradict the exact sign, and must decide the clear cases.
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<double> u(-1, 1);
+    int decided = 0, clear = 0;
+    for (int i = 0; i < 4000; ++i) {
+        const bool far = i % 8 >= 4;
+        const double size = far ? 1e-3 : 1, at = far ? 1024 : 0;
+        insertion::inserted_mesh r;
+        std::array<rational_point, 4> q;
+        for (int k = 0; k < 3; ++k)
+            q[k] = to_rational(vec3{at + size * u(rng), at + size * u(rng), at + size * u(rng)});
+        const mpq_class s(int(rng() % 97) + 1, 101), t(int(rng() % 89) + 1, 103);
+        const mpq_class scale = far ? mpq_class(1, 1000000) : mpq_class(1);
+        const mpq_class h[] = {0, mpq_class(1, 1000000) * mpq_class(1, 1000000000000),
+                               mpq_class(-1, 1000000000000), mpq_class(1, 1000)};
+        const mpq_class off = h[i % 4] * scale;
+        for (int k = 0; k < 3; ++k)
+            q[3][k] = q[0][k] + s * (q[1][k] - q[0][k]) + t * (q[2][k] - q[0][k]) +
+                      (k == 2 ? off : mpq_class(0));
+        // Corner 3 always rational; corner 1 too in every other case.
+        const bool second_rational = i % 2 == 1;
+        if (second_rational)
+            for (int k = 0; k < 3; ++k) q[1][k] += mpq_class(1, 3) * mpq_class(1, 1 << 30) * scale;
+        for (int k = 0; k < 4; ++k) {
+            r.vertices.push_back(to_vec3(q[k]));
+            if (k == 3 || (k == 1 && second_rational)) r.exact.emplace(index_t(k), q[k]);
+        }
+        const tet_indices tet{0, 1, 2, 3};
+        const int exact = idas::detail::predicates::orient3d_rational_mpz(q[0], q[1], q[2], q[3]);
+        const int filtered = insertion::detail::orientation_from_doubles(r, tet);
+        CAPTURE(i);
+        if (filtered != 0) CHECK(filtered == exact);
+        CHECK(insertion::orientation(r, tet) == exact);
+        decided += filtered != 0;
+        clear += i % 4 == 3;
+    }
+    CHECK(decided >= clear);
+}
+
 TEST_CASE("triangle insertion: the small meshes of data/, exactly covered and valid") {
     for (const char* name :
          {"edge_with_four_triangles.off", "hour_glass.off", "sphere.obj", "x.stl"}) {
