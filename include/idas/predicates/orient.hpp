@@ -395,10 +395,13 @@ inline int orient2d(const std::array<double, 2>& a, const std::array<double, 2>&
     return dp::orient2d_exact({a[0], a[1], b[0], b[1], c[0], c[1]});
 }
 
-/// The sign of orient3d(a, b, c, d) where floating point alone proves it: +1 or -1, and 0
-/// when it cannot tell (the points are coplanar or nearly so). Lets a caller try a
-/// cheaper exact argument before paying for the exact fallback.
-inline int orient3d_filtered(const vec3& a, const vec3& b, const vec3& c, const vec3& d) noexcept {
+/// det[b - a, c - a, d - a] in doubles, with a bound on its error: the exact determinant
+/// of the doubles lies within `bound` of `det` (the filter's analysis above).
+struct orient3d_estimate {
+    double det, bound;
+};
+inline orient3d_estimate orient3d_with_bound(const vec3& a, const vec3& b, const vec3& c,
+                                             const vec3& d) noexcept {
     namespace dp = detail::predicates;
     const double ux = b.x - a.x, uy = b.y - a.y, uz = b.z - a.z;
     const double vx = c.x - a.x, vy = c.y - a.y, vz = c.z - a.z;
@@ -411,7 +414,14 @@ inline int orient3d_filtered(const vec3& a, const vec3& b, const vec3& c, const 
     const double perm = aux * (std::fabs(vywz) + std::fabs(vzwy)) +
                         auy * (std::fabs(vzwx) + std::fabs(vxwz)) +
                         auz * (std::fabs(vxwy) + std::fabs(vywx));
-    const double bound = dp::o3d_rel_bound * perm + (aux + auy + auz + 1.0) * dp::underflow_bound;
+    return {det, dp::o3d_rel_bound * perm + (aux + auy + auz + 1.0) * dp::underflow_bound};
+}
+
+/// The sign of orient3d(a, b, c, d) where floating point alone proves it: +1 or -1, and 0
+/// when it cannot tell (the points are coplanar or nearly so). Lets a caller try a
+/// cheaper exact argument before paying for the exact fallback.
+inline int orient3d_filtered(const vec3& a, const vec3& b, const vec3& c, const vec3& d) noexcept {
+    const auto [det, bound] = orient3d_with_bound(a, b, c, d);
     return det > bound ? 1 : -det > bound ? -1 : 0;
 }
 
