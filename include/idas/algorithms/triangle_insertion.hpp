@@ -85,15 +85,22 @@ namespace detail {
 
 // ---- exact planes ------------------------------------------------------------------------
 
-/// The plane {x : n . x = off}, oriented by n. Planes through three double points keep
-/// them for the exact double orient3d, the fast path on double points.
+/// The plane {x : n . x = off}, oriented by n, with integer n and off: its value on a
+/// rational point is a fraction built from products alone (plane_value()), where
+/// canonical rationals would run a gcd on every operation. Planes through three double
+/// points keep them for the exact double orient3d, the fast path on double points, and
+/// get n and off on first use (make_exact()).
 struct exact_plane {
-    std::array<mpq_class, 3> n; // exact normal and offset; for planes through points
-    mpq_class off;              // filled on first use (see exact())
+    std::array<mpz_class, 3> n;
+    mpz_class off;
     bool has_exact = false;
     bool by_points = false;
     std::array<vec3, 3> p{};
-    vec3 normal, anchor; // in doubles, for the floating-point filter
+    // In doubles, for the floating-point filter: the normal (each component within
+    // normal_error of the exact one, up to the positive scale of n) and a double point
+    // on the plane.
+    vec3 normal, anchor;
+    double normal_error = INFINITY;
 };
 
 /// orient3d with repeated points answered at once: the triangle's own corners lie on
@@ -114,36 +121,144 @@ inline mpq_class dot(const std::array<mpq_class, 3>& n, const rational_point& x)
     return n[0] * x.x + n[1] * x.y + n[2] * x.z;
 }
 
+using int_vector = std::array<mpz_class, 3>;
+
+inline int_vector cross(const int_vector& u, const int_vector& v) {
+    return {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
+}
+inline int_vector minus(const int_vector& a, const int_vector& b) {
+    return {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
+}
+inline mpz_class dot(const int_vector& u, const int_vector& v) {
+    return u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
+}
+
+/// Double points as exact integers on a common scale: p = P * 2^low, where 2^low is the
+/// lowest bit of any of their coordinates.
+struct scaled_points {
+    int low = 0;
+    std::array<int_vector, 3> P;
+
+    explicit scaled_points(const std::array<vec3, 3>& p) {
+        low = std::numeric_limits<int>::max();
+        for (const vec3& x : p)
+            for (int k = 0; k < 3; ++k)
+                if (x[k] != 0) {
+                    int e = 0;
+                    std::frexp(x[k], &e); // x = m 2^e, 0.5 <= |m| < 1: bits down to 2^(e - 53)
+                    low = std::min(low, e - 53);
+                }
+        if (low == std::numeric_limits<int>::max()) low = 0;
+        for (std::size_t i = 0; i < 3; ++i)
+            for (int k = 0; k < 3; ++k) {
+                if (p[i][k] == 0) continue; // P[i][k] is 0 already
+                int e = 0;
+                const double m = std::frexp(p[i][k], &e);
+                P[i][k] = std::ldexp(m, 53); // exact: an integer below 2^53
+                P[i][k] <<= mp_bitcnt_t(e - 53 - low);
+            }
+    }
+
+    /// The plane with normal n (in scaled space) through scaled point A, as an integer
+    /// plane on unscaled points: n . (x / 2^low) - n . A, times a power of two.
+    void set_plane(exact_plane& pl, int_vector n, const int_vector& A) const {
+        mpz_class off = dot(n, A);
+        if (low < 0)
+            for (mpz_class& c : n) c <<= mp_bitcnt_t(-low);
+        else
+            off <<= mp_bitcnt_t(low);
+        pl.n = std::move(n);
+        pl.off = std::move(off);
+        pl.has_exact = true;
+    }
+};
+
 /// Oriented like orient3d(a, b, c, x): positive where that is positive.
 inline void make_exact(exact_plane& pl) {
     if (pl.has_exact) return;
-    const rational_point A = to_rational(pl.p[0]), B = to_rational(pl.p[1]),
-                         C = to_rational(pl.p[2]);
-    pl.n = cross(minus(B, A), minus(C, A));
-    pl.off = dot(pl.n, A);
-    pl.has_exact = true;
+    const scaled_points s(pl.p);
+    s.set_plane(pl, cross(minus(s.P[1], s.P[0]), minus(s.P[2], s.P[0])), s.P[0]);
+}
+
+/// The value of plane pl at x as N / D, D > 0: a positive multiple of n . x - off.
+inline void plane_value(const exact_plane& pl, const rational_point& x, mpz_class& N,
+                        mpz_class& D) {
+    const mpz_class &qx = x.x.get_den(), &qy = x.y.get_den(), &qz = x.z.get_den();
+    const mpz_class qyz = qy * qz;
+    D = qx * qyz;
+    N = pl.n[0] * x.x.get_num() * qyz;
+    N += pl.n[1] * x.y.get_num() * (qx * qz);
+    N += pl.n[2] * x.z.get_num() * (qx * qy);
+    N -= pl.off * D;
+}
+
+constexpr double unit_roundoff = 0x1p-53;
+
+inline double max_abs(const vec3& v) {
+    return std::max({std::abs(v.x), std::abs(v.y), std::abs(v.z)});
+}
+inline double sum_abs(const vec3& v) {
+    return std::abs(v.x) + std::abs(v.y) + std::abs(v.z);
+}
+
+/// A bound on each component's error of cross(u, v) computed in doubles, where u is within
+/// u_error and v within v_error (per component, absolute) of exact vectors, and u and v
+/// are at most u_max and v_max in each component. The last term covers gradual
+/// underflow, which errs by at most 2^-1075 per operation.
+inline double cross_error(double u_max, double u_error, double v_max, double v_error) {
+    const double e = 2 * (u_max * v_error + v_max * u_error + u_error * v_error) +
+                     4 * unit_roundoff * u_max * v_max;
+    return 1.01 * e + 1e-300;
+}
+
+/// A bound on |value - exact value| for a plane's filter: value = normal . d with
+/// d = x - anchor computed in doubles from a point x that is within x_error (per
+/// component) of the exact point. Twice the bound, for the rounding of the bound itself,
+/// plus a term for gradual underflow.
+inline double filter_bound(const vec3& normal, double normal_error, const vec3& d, double x_error) {
+    const double en = normal_error, n1 = sum_abs(normal), dmax = max_abs(d);
+    // (normal - exact) . d, exact . (d - exact d), and the dot product's own rounding.
+    const double b = en * sum_abs(d) +
+                     (n1 + 3 * en) * (1.01 * unit_roundoff * dmax + 1.01 * x_error) +
+                     3.01 * unit_roundoff * n1 * dmax;
+    return 2 * b + 1e-300;
+}
+inline double filter_bound(const exact_plane& pl, const vec3& d, double x_error) {
+    return filter_bound(pl.normal, pl.normal_error, d, x_error);
+}
+
+/// The normal of triangle (a, b, c) in doubles, and its error bound per component.
+inline std::pair<vec3, double> approximate_normal(const vec3& a, const vec3& b, const vec3& c) {
+    const vec3 u = b - a, v = c - a; // each within one rounding of the exact difference
+    return {cross(u, v), cross_error(max_abs(u), unit_roundoff * max_abs(u), max_abs(v),
+                                     unit_roundoff * max_abs(v))};
 }
 
 inline exact_plane plane_through(const vec3& a, const vec3& b, const vec3& c) {
     exact_plane pl;
     pl.by_points = true;
     pl.p = {a, b, c};
-    pl.normal = cross(b - a, c - a);
+    std::tie(pl.normal, pl.normal_error) = approximate_normal(a, b, c);
     pl.anchor = a;
     return pl;
 }
 
-/// The plane through edge (e0, e1) of a triangle with normal n, perpendicular to the
-/// triangle; the triangle's third corner is on its negative side.
-inline exact_plane edge_plane(const vec3& e0, const vec3& e1, const std::array<mpq_class, 3>& n,
-                              const vec3& n_approx) {
-    const rational_point A = to_rational(e0), B = to_rational(e1);
+/// The plane through edge e (from corner e to corner e + 1) of triangle (a, b, c),
+/// perpendicular to the triangle, with the triangle's third corner on its negative side.
+inline exact_plane edge_plane(const std::array<vec3, 3>& tri, int e) {
+    const scaled_points s(tri);
+    const int_vector n = cross(minus(s.P[1], s.P[0]), minus(s.P[2], s.P[0]));
+    const int_vector& E0 = s.P[std::size_t(e)];
+    const int_vector& E1 = s.P[std::size_t((e + 1) % 3)];
     exact_plane pl;
-    pl.n = cross(minus(B, A), n);
-    pl.off = dot(pl.n, A);
-    pl.normal = cross(e1 - e0, n_approx);
+    s.set_plane(pl, cross(minus(E1, E0), n), E0);
+    const vec3 &e0 = tri[std::size_t(e)], &e1 = tri[std::size_t((e + 1) % 3)];
+    const auto [n_approx, n_error] = approximate_normal(tri[0], tri[1], tri[2]);
+    const vec3 d = e1 - e0;
+    pl.normal = cross(d, n_approx);
+    pl.normal_error =
+        cross_error(max_abs(d), unit_roundoff * max_abs(d), max_abs(n_approx), n_error);
     pl.anchor = e0;
-    pl.has_exact = true;
     return pl;
 }
 
@@ -179,16 +294,18 @@ inline bool may_meet(const vec3& a, const vec3& b, const vec3& c, const std::arr
             return false;
     }
     // Separation by the plane through an edge, perpendicular to the triangle: floating
-    // point with a wide margin, so it only ever drops tets that are clearly outside.
-    const vec3 n = cross(b - a, c - a);
+    // point beyond its proven error bound, so it only ever drops tets that are outside.
+    const auto [n, n_error] = approximate_normal(a, b, c);
     const std::array<std::array<const vec3*, 2>, 3> edges{{{&a, &b}, {&b, &c}, {&c, &a}}};
     for (const auto& e : edges) {
-        const vec3 m = cross(*e[1] - *e[0], n);
-        const double mlen = norm(m);
+        const vec3 edge = *e[1] - *e[0];
+        const vec3 m = cross(edge, n);
+        const double m_error =
+            cross_error(max_abs(edge), unit_roundoff * max_abs(edge), max_abs(n), n_error);
         bool outside = true;
         for (const vec3& q : p) {
             const vec3 d = q - *e[0];
-            if (!(dot(m, d) > 1e-9 * mlen * norm(d))) {
+            if (!(dot(m, d) > filter_bound(m, m_error, d, 0))) {
                 outside = false;
                 break;
             }
@@ -234,23 +351,21 @@ inline bool meets_with_area(const vec3& a, const vec3& b, const vec3& c,
     for (int i = 0; i < 4; ++i)
         for (int j = i + 1; j < 4; ++j)
             if (s[i] * s[j] < 0) sec[ns++] = {i, j};
-    const vec3 n = cross(b - a, c - a);
-    const std::array<std::array<const vec3*, 2>, 3> edges{{{&a, &b}, {&b, &c}, {&c, &a}}};
-    // Exact values, built only when needed.
-    std::optional<std::array<mpq_class, 3>> nq;
-    auto exact_n = [&]() -> const std::array<mpq_class, 3>& {
-        if (!nq)
-            nq =
-                cross(minus(to_rational(b), to_rational(a)), minus(to_rational(c), to_rational(a)));
-        return *nq;
-    };
-    for (const auto& e : edges) {
-        const vec3 &e0 = *e[0], &e1 = *e[1];
-        const vec3 m = cross(e1 - e0, n);
+    const std::array<vec3, 3> tri{a, b, c};
+    const auto [n, n_error] = approximate_normal(a, b, c);
+    // Exact planes, built only when the filters cannot decide.
+    std::optional<exact_plane> plane;
+    mpz_class Nfu, Dfu, Nfv, Dfv, Ngu, Dgu, Ngv, Dgv;
+    for (int e = 0; e < 3; ++e) {
+        const vec3 &e0 = tri[std::size_t(e)], &e1 = tri[std::size_t((e + 1) % 3)];
+        const vec3 edge = e1 - e0;
+        const vec3 m = cross(edge, n);
+        const double m_error =
+            cross_error(max_abs(edge), unit_roundoff * max_abs(edge), max_abs(n), n_error);
         std::optional<exact_plane> g; // the edge plane, exactly
-        auto exact_value = [&](const vec3& x) {
-            if (!g) g = edge_plane(e0, e1, exact_n(), n);
-            return mpq_class(dot(g->n, to_rational(x)) - g->off);
+        auto edge_value = [&](const vec3& x, mpz_class& N, mpz_class& D) {
+            if (!g) g = edge_plane(tri, e);
+            plane_value(*g, to_rational(x), N, D);
         };
         // Sign of the edge plane at section corner k.
         auto side = [&](const corner& k) {
@@ -258,26 +373,45 @@ inline bool meets_with_area(const vec3& a, const vec3& b, const vec3& c,
                 const vec3& x = p[k.u];
                 if (x == e0 || x == e1) return 0;
                 const vec3 d = x - e0;
-                const double val = dot(m, d), tol = 1e-10 * norm(m) * norm(d);
+                const double val = dot(m, d), tol = filter_bound(m, m_error, d, 0);
                 if (val > tol) return 1;
                 if (val < -tol) return -1;
-                return sgn(exact_value(x));
+                edge_value(x, Ngu, Dgu);
+                return sgn(Ngu);
             }
+            // The crossing x = u + t (v - u), t = fu / (fu - fv), of the triangle's plane
+            // (values fu, fv, of opposite signs) with tet edge (u, v), in doubles first:
+            // t is within dt of the exact one when fu and fv are within their bounds.
             const vec3 &u = p[k.u], &v = p[k.v];
-            const double fu = dot(n, u - a), fv = dot(n, v - a);
-            const double t = fu / (fu - fv);
-            const vec3 x = u + (v - u) * t, d = x - e0;
-            const double val = dot(m, d);
-            const double tol = 1e-8 * norm(m) * (norm(u - e0) + norm(v - e0));
-            if (std::isfinite(t) && val > tol) return 1;
-            if (std::isfinite(t) && val < -tol) return -1;
-            // x = u + t (v - u) with t = fu / (fu - fv): the edge plane's value there has
-            // the sign of (fu gv - fv gu) / (fu - fv).
-            const rational_point A = to_rational(a), U = to_rational(u), V = to_rational(v);
-            const auto& N = exact_n();
-            const mpq_class Fu = dot(N, U) - dot(N, A), Fv = dot(N, V) - dot(N, A);
-            const mpq_class Gu = exact_value(u), Gv = exact_value(v);
-            return sgn(Fu * Gv - Fv * Gu) * sgn(Fu - Fv);
+            const vec3 du = u - a, dv = v - a;
+            const double fu = dot(n, du), fv = dot(n, dv);
+            const double efu = filter_bound(n, n_error, du, 0),
+                         efv = filter_bound(n, n_error, dv, 0);
+            const double sure = std::abs(fu) + std::abs(fv) - efu - efv;
+            if (std::abs(fu) > efu && std::abs(fv) > efv && sure > 0) {
+                const double t = fu / (fu - fv);
+                const double dt = (efu + efv) / sure + 2.01 * unit_roundoff;
+                const vec3 uv = v - u;
+                const vec3 x = u + uv * t, d = x - e0;
+                const double x_error =
+                    1.01 * (max_abs(uv) * (dt + 3 * unit_roundoff) + unit_roundoff * max_abs(x));
+                const double val = dot(m, d), tol = filter_bound(m, m_error, d, x_error);
+                if (std::isfinite(val) && val > tol) return 1;
+                if (std::isfinite(val) && val < -tol) return -1;
+            }
+            // Exactly: the edge plane's value at x has the sign of
+            // (fu gv - fv gu) / (fu - fv), with g the edge plane's values at u and v.
+            if (!plane) {
+                plane = plane_through(a, b, c);
+                make_exact(*plane);
+            }
+            const rational_point U = to_rational(u), V = to_rational(v);
+            plane_value(*plane, U, Nfu, Dfu);
+            plane_value(*plane, V, Nfv, Dfv);
+            edge_value(u, Ngu, Dgu);
+            edge_value(v, Ngv, Dgv);
+            const mpz_class lhs = Nfu * Ngv * Dfv * Dgu, rhs = Nfv * Ngu * Dfu * Dgv;
+            return sgn(mpz_class(lhs - rhs)) * sgn(mpz_class(Nfu * Dfv - Nfv * Dfu));
         };
         bool separated = true;
         for (int k = 0; k < ns && separated; ++k) separated = side(sec[k]) >= 0;
@@ -421,6 +555,35 @@ inline cutting_planes find_cutting_planes(const insertion_input& in, const tet_a
     return cp;
 }
 
+/// orient3d's sign on the exact positions when the vertices' doubles decide it, 0 when they
+/// do not. A rational vertex lies within one ulp of its doubles in each coordinate, so the
+/// determinant of the doubles' differences u, v, w (each coordinate at most M in size and
+/// off by at most E, the two vertices' ulps) is within 6 E (3 M^2 + 3 M E + E^2) of the
+/// exact one; orient3d's filter bounds its own rounding. Most tets with rational corners
+/// are decided here, without GMP.
+inline int orientation_from_doubles(const std::array<vec3, 4>& p,
+                                    const std::array<bool, 4>& exact) {
+    std::array<double, 4> slack{};
+    for (std::size_t i = 0; i < 4; ++i) {
+        if (exact[i]) continue;
+        for (int k = 0; k < 3; ++k) {
+            const double a = std::abs(p[i][k]);
+            slack[i] = std::max(slack[i], std::nextafter(a, INFINITY) - a);
+        }
+    }
+    double m = 0, e = 0;
+    for (std::size_t i = 1; i < 4; ++i)
+        for (int k = 0; k < 3; ++k) m = std::max(m, std::abs(p[i][k] - p[0][k]));
+    m *= 1 + 0x1p-52; // the exact differences, not their rounding
+    for (std::size_t i = 1; i < 4; ++i) e = std::max(e, slack[0] + slack[i]);
+    // Far from underflow and overflow, where the bound below is itself accurate.
+    if (!(m > 1e-80 && m < 1e80) || !(e < m)) return 0;
+    const auto [det, rounding] = orient3d_with_bound(p[0], p[1], p[2], p[3]);
+    // 1% more covers the rounding of this sum.
+    const double bound = 1.01 * (rounding + 6 * e * (3 * m * m + 3 * m * e + e * e));
+    return det > bound ? 1 : -det > bound ? -1 : 0;
+}
+
 // ---- cutting one tet -----------------------------------------------------------------------
 
 struct point {
@@ -558,13 +721,17 @@ private:
     std::vector<cell> cells_;
     std::vector<exact_plane> planes_;
     std::vector<std::vector<std::int8_t>> signs_; // per plane, per point; 2 = unknown
+    mpz_class num_, den_;                         // scratch for exact_sign
     std::unordered_map<std::uint64_t, std::uint32_t> plane_ids_;   // 4 * triangle + (0 | edge + 1)
     std::unordered_map<std::uint64_t, std::uint32_t> edge_points_; // (a, b, plane)
     std::vector<std::pair<index_t, std::uint32_t>> group_plane_;
     struct triangulation {
         std::vector<std::array<std::uint32_t, 3>> triangles;
         std::vector<index_t> tracked_by;
-        rational_point inner; // strictly inside the polygon, from its corners alone
+        // A point strictly inside the polygon, from its corners alone: (c0 + c1) / 2 if
+        // inner_is_midpoint, else (2 c0 + c1 + c2) / 4. Built exactly only when needed.
+        std::array<std::uint32_t, 3> inner_corners{};
+        bool inner_is_midpoint = false;
         std::int32_t support = 0;
     };
     std::map<std::vector<std::uint32_t>, triangulation> triangulations_;
@@ -589,17 +756,15 @@ private:
         if (auto it = plane_ids_.find(key); it != plane_ids_.end()) return it->second;
         const auto& tri = in_.triangles[t];
         const auto& V = in_.vertices;
-        exact_plane& base = planes_[triangle_plane(t)];
-        make_exact(base);
-        const std::array<mpq_class, 3> n = base.n;
-        const vec3 normal = base.normal;
-        return add_plane(key, edge_plane(V[tri[e]], V[tri[(e + 1) % 3]], n, normal));
+        return add_plane(key, edge_plane({V[tri[0]], V[tri[1]], V[tri[2]]}, e));
     }
 
-    mpq_class exact_value(std::uint32_t k, const rational_point& x) {
+    /// Sign of plane k at x, exactly.
+    int exact_sign(std::uint32_t k, const rational_point& x) {
         exact_plane& pl = planes_[k];
         make_exact(pl);
-        return dot(pl.n, x) - pl.off;
+        plane_value(pl, x, num_, den_);
+        return sgn(num_);
     }
 
     int sign(std::uint32_t p, std::uint32_t k) {
@@ -612,17 +777,16 @@ private:
         if (pl.by_points && x.is_double) {
             r = o3d(pl.p[0], pl.p[1], pl.p[2], x.approx);
         } else {
-            // Floating-point filter with a wide margin (the normal, the point and the
-            // product are each off by a few ulps), then GMP.
+            // Floating-point filter, then GMP. x.approx is the nearest double of x.
             const vec3 d = x.approx - pl.anchor;
             const double val = dot(pl.normal, d);
-            const double tol = 1e-10 * norm(pl.normal) * (norm(d) + norm(x.approx));
+            const double tol = filter_bound(pl, d, unit_roundoff * max_abs(x.approx));
             if (val > tol)
                 r = 1;
             else if (val < -tol)
                 r = -1;
             else
-                r = sgn(exact_value(k, x.q));
+                r = exact_sign(k, x.q);
         }
         s[p] = std::int8_t(r);
         return r;
@@ -635,9 +799,22 @@ private:
             (std::uint64_t(std::min(a, b)) << 42) | (std::uint64_t(std::max(a, b)) << 20) | k;
         if (auto it = edge_points_.find(key); it != edge_points_.end()) return it->second;
         const rational_point &A = pts_[a].q, &B = pts_[b].q;
-        const mpq_class fa = exact_value(k, A), fb = exact_value(k, B);
-        const mpq_class s = fa / (fa - fb);
-        rational_point x{A.x + s * (B.x - A.x), A.y + s * (B.y - A.y), A.z + s * (B.z - A.z)};
+        // x = (fa B - fb A) / (fa - fb) with the plane's values fa = Na / Da, fb = Nb / Db,
+        // in integers, and one gcd per coordinate at the end.
+        exact_plane& pl = planes_[k];
+        make_exact(pl);
+        mpz_class Na, Da, Nb, Db;
+        plane_value(pl, A, Na, Da);
+        plane_value(pl, B, Nb, Db);
+        const mpz_class alpha = Na * Db, beta = Nb * Da, gap = alpha - beta;
+        rational_point x;
+        for (int i = 0; i < 3; ++i) {
+            const mpz_class &an = A[i].get_num(), &ad = A[i].get_den(), &bn = B[i].get_num(),
+                            &bd = B[i].get_den();
+            x[i].get_num() = alpha * bn * ad - beta * an * bd;
+            x[i].get_den() = gap * ad * bd;
+            x[i].canonicalize(); // also makes the denominator positive
+        }
         const std::uint32_t id = std::uint32_t(pts_.size());
         pts_.push_back(make_point(std::move(x), std::uint8_t(pts_[a].faces & pts_[b].faces)));
         signs_[k].resize(pts_.size(), 2);
@@ -673,21 +850,23 @@ private:
     }
 
     /// Orders points of a convex polygon on plane k (all corners) cyclically.
-    void order_on_plane(std::vector<std::uint32_t>& v, const std::array<mpq_class, 3>& n) {
+    void order_on_plane(std::vector<std::uint32_t>& v, const int_vector& n) {
         // Drop the axis where the normal is largest: an exact affine bijection onto 2D.
         int drop = 0;
         for (int a = 1; a < 3; ++a)
             if (cmp(abs(n[a]), abs(n[drop])) > 0) drop = a;
         const int u = (drop + 1) % 3, w = (drop + 2) % 3;
         auto first = std::min_element(v.begin(), v.end(), [&](std::uint32_t a, std::uint32_t b) {
-            const auto &A = pts_[a].q, &B = pts_[b].q;
-            if (int c = cmp(A[u], B[u])) return c < 0;
-            return cmp(A[w], B[w]) < 0;
+            if (int c = compare(pts_[a], pts_[b], u)) return c < 0;
+            return compare(pts_[a], pts_[b], w) < 0;
         });
         std::iter_swap(v.begin(), first);
-        const rational_point& o = pts_[v[0]].q;
+        const point& O = pts_[v[0]];
+        const rational_point& o = O.q;
         std::sort(v.begin() + 1, v.end(), [&](std::uint32_t a, std::uint32_t b) {
-            const auto &A = pts_[a].q, &B = pts_[b].q;
+            const point &PA = pts_[a], &PB = pts_[b];
+            if (const int s = cross_sign(O.approx, PA.approx, PB.approx, u, w)) return s > 0;
+            const auto &A = PA.q, &B = PB.q;
             return sgn((A[u] - o[u]) * (B[w] - o[w]) - (A[w] - o[w]) * (B[u] - o[u])) > 0;
         });
     }
@@ -807,15 +986,17 @@ private:
             const std::uint8_t mask = A.faces & B.faces;
             int axis = 0; // an axis along which the segment is not constant
             for (int k = 0; k < 3; ++k)
-                if (A.q[k] != B.q[k]) axis = k;
-            const bool up = A.q[axis] < B.q[axis];
+                if (compare(A, B, k) != 0) axis = k;
+            const bool up = compare(A, B, axis) < 0;
             vec3 blo, bhi;
             for (int k = 0; k < 3; ++k) {
                 const double pad = 1e-9 * (std::abs(A.approx[k]) + std::abs(B.approx[k])) + 1e-300;
                 blo[k] = std::min(A.approx[k], B.approx[k]) - pad;
                 bhi[k] = std::max(A.approx[k], B.approx[k]) + pad;
             }
-            const auto d = minus(B.q, A.q);
+            // Exactly, when first needed: integer rows proportional to B - A and W - A.
+            std::optional<int_vector> d;
+            int_vector w_row;
             for (std::uint32_t w = 0; w < pts_.size(); ++w) {
                 if (w == lo || w == hi) continue;
                 const point& W = pts_[w];
@@ -824,17 +1005,54 @@ private:
                 for (int k = 0; k < 3 && in_box; ++k)
                     in_box = W.approx[k] >= blo[k] && W.approx[k] <= bhi[k];
                 if (!in_box) continue;
-                const int lo_side = cmp(W.q[axis], A.q[axis]), hi_side = cmp(W.q[axis], B.q[axis]);
+                const int lo_side = compare(W, A, axis), hi_side = compare(W, B, axis);
                 if (up ? !(lo_side > 0 && hi_side < 0) : !(lo_side < 0 && hi_side > 0)) continue;
-                const auto c = cross(d, minus(W.q, A.q));
-                if (sgn(c[0]) || sgn(c[1]) || sgn(c[2])) continue;
+                if (surely_not_collinear(A.approx, B.approx, W.approx)) continue;
+                if (!d) idas::detail::predicates::rational_row(B.q, A.q, d.emplace());
+                idas::detail::predicates::rational_row(W.q, A.q, w_row);
+                const int_vector& u = *d;
+                if (u[0] * w_row[1] != u[1] * w_row[0] || u[1] * w_row[2] != u[2] * w_row[1] ||
+                    u[2] * w_row[0] != u[0] * w_row[2])
+                    continue;
                 found.push_back(w);
             }
             std::sort(found.begin(), found.end(), [&](std::uint32_t x, std::uint32_t y) {
-                return up ? pts_[x].q[axis] < pts_[y].q[axis] : pts_[x].q[axis] > pts_[y].q[axis];
+                const int c = compare(pts_[x], pts_[y], axis);
+                return up ? c < 0 : c > 0;
             });
         }
         return found;
+    }
+
+    /// Sign of P[k] - Q[k]. Rounding to the nearest double is monotone, so distinct
+    /// roundings order the exact values; GMP only for equal ones.
+    static int compare(const point& P, const point& Q, int k) {
+        if (P.approx[k] != Q.approx[k]) return P.approx[k] < Q.approx[k] ? -1 : 1;
+        if (P.is_double && Q.is_double) return 0;
+        return cmp(P.q[k], Q.q[k]);
+    }
+
+    /// Sign of component (u, w) of the cross product (a - o) x (b - o) of three exact points,
+    /// judged from their nearest doubles o, a, b; 0 when the doubles cannot tell. Each
+    /// coordinate is off by at most u = 2^-53 relative, so with M the largest magnitude the
+    /// computed value is within about 50 u M^2 of the exact one; the margin is 1e-12 M^2
+    /// (about 180 times that), and tiny magnitudes, where underflow breaks the relative
+    /// bound, are left to GMP.
+    static int cross_sign(const vec3& o, const vec3& a, const vec3& b, int u, int w) {
+        const double M = std::max({std::abs(o[u]), std::abs(o[w]), std::abs(a[u]), std::abs(a[w]),
+                                   std::abs(b[u]), std::abs(b[w])});
+        const double M2 = M * M;
+        if (!(M2 > 1e-200)) return 0;
+        const double c = (a[u] - o[u]) * (b[w] - o[w]) - (a[w] - o[w]) * (b[u] - o[u]);
+        const double margin = 1e-12 * M2;
+        return c > margin ? 1 : (c < -margin ? -1 : 0);
+    }
+
+    /// True when points a, b, w (nearest doubles of exact points) are certainly not on one
+    /// line: some component of (b - a) x (w - a) is certainly not zero.
+    static bool surely_not_collinear(const vec3& a, const vec3& b, const vec3& w) {
+        return cross_sign(a, b, w, 1, 2) != 0 || cross_sign(a, b, w, 2, 0) != 0 ||
+               cross_sign(a, b, w, 0, 1) != 0;
     }
 
     std::uint32_t add_point(rational_point q, std::uint8_t faces) {
@@ -854,16 +1072,26 @@ private:
         return r;
     }
 
-    bool inside_triangle(const rational_point& x, const vec3& approx, index_t t) {
+    rational_point inner_point(const triangulation& T) const {
+        const auto& c = T.inner_corners;
+        if (T.inner_is_midpoint) return average({&pts_[c[0]].q, &pts_[c[1]].q}, {1, 1});
+        return average({&pts_[c[0]].q, &pts_[c[1]].q, &pts_[c[2]].q}, {2, 1, 1});
+    }
+
+    /// True iff T's inner point is in the closed input triangle t (its edge planes),
+    /// judged from doubles where the filter allows: approx is within x_error of it.
+    bool inside_triangle(const triangulation& T, const vec3& approx, double x_error, index_t t,
+                         std::optional<rational_point>& exact) {
         for (int e = 0; e < 3; ++e) {
             const std::uint32_t k = triangle_edge_plane(t, e);
             const exact_plane& pl = planes_[k];
             const vec3 d = approx - pl.anchor;
             const double val = dot(pl.normal, d);
-            const double tol = 1e-10 * norm(pl.normal) * (norm(d) + norm(approx));
+            const double tol = filter_bound(pl, d, x_error);
             if (val > tol) return false;
             if (val < -tol) continue;
-            if (sgn(exact_value(k, x)) > 0) return false;
+            if (!exact) exact = inner_point(T);
+            if (exact_sign(k, *exact) > 0) return false;
         }
         return true;
     }
@@ -900,14 +1128,19 @@ private:
         // weighted centre of a triangle.
         std::uint8_t mask = 0xF;
         for (std::uint32_t c : corners) mask &= pts_[c].faces;
-        rational_point inner =
-            m >= 4 ? average({&pts_[corners[0]].q, &pts_[corners[m / 2]].q}, {1, 1})
-                   : average({&pts_[corners[0]].q, &pts_[corners[1]].q, &pts_[corners[2]].q},
-                             {2, 1, 1});
+        T.inner_is_midpoint = m >= 4;
+        T.inner_corners = {corners[0], corners[m >= 4 ? m / 2 : 1], corners[m >= 4 ? 0 : 2]};
         if (!on_plane.empty()) {
-            const vec3 approx = to_vec3(inner);
+            // The inner point in doubles, within 4 u M of the exact one (M: the corners'
+            // largest coordinate; each corner is within u M, the sums round twice).
+            const vec3 &a = pts_[T.inner_corners[0]].approx, &b = pts_[T.inner_corners[1]].approx,
+                       &c = pts_[T.inner_corners[2]].approx;
+            const vec3 approx = T.inner_is_midpoint ? (a + b) * 0.5 : (a * 2.0 + b + c) * 0.25;
+            const double error =
+                4.04 * unit_roundoff * std::max({max_abs(a), max_abs(b), max_abs(c)});
+            std::optional<rational_point> exact;
             for (index_t t : on_plane)
-                if (inside_triangle(inner, approx, t)) T.tracked_by.push_back(t);
+                if (inside_triangle(T, approx, error, t, exact)) T.tracked_by.push_back(t);
         }
         T.support = P.support;
         // Fan from the smallest corner whose two sides hold no extra point, else from an
@@ -922,10 +1155,8 @@ private:
                 std::size_t(std::find(boundary.begin(), boundary.end(), a) - boundary.begin());
             for (std::size_t i = 1; i + 1 < nb; ++i)
                 T.triangles.push_back({a, boundary[(at + i) % nb], boundary[(at + i + 1) % nb]});
-            T.inner = std::move(inner);
         } else {
-            T.inner = inner;
-            const std::uint32_t c = add_point(std::move(inner), mask);
+            const std::uint32_t c = add_point(inner_point(T), mask);
             for (std::size_t i = 0; i < nb; ++i)
                 T.triangles.push_back({c, boundary[i], boundary[(i + 1) % nb]});
         }
@@ -950,6 +1181,10 @@ private:
         const point &A = pts_[a], &B = pts_[b], &C = pts_[c], &D = pts_[d];
         if (A.is_double && B.is_double && C.is_double && D.is_double)
             return orient3d(A.approx, B.approx, C.approx, D.approx);
+        if (const int s =
+                orientation_from_doubles({A.approx, B.approx, C.approx, D.approx},
+                                         {A.is_double, B.is_double, C.is_double, D.is_double}))
+            return s;
         return idas::detail::predicates::orient3d_rational_mpz(A.q, B.q, C.q, D.q);
     }
 
@@ -991,7 +1226,8 @@ private:
         const std::uint32_t x = corners.front();
         for (const triangulation* T : parts)
             if (!on_support(x, T->support)) {
-                const std::uint32_t s = add_point(average({&pts_[x].q, &T->inner}, {1, 1}), 0);
+                const rational_point inner = inner_point(*T);
+                const std::uint32_t s = add_point(average({&pts_[x].q, &inner}, {1, 1}), 0);
                 for (const triangulation* U : parts)
                     for (const auto& t : U->triangles) emit(s, t, out);
                 return;
@@ -1177,35 +1413,16 @@ inline inserted_mesh insert_triangles(const insertion_input& in) {
 
 namespace detail {
 
-/// orient3d's sign on the exact positions when the vertices' doubles decide it, 0 when they
-/// do not. A rational vertex lies within one ulp of its doubles in each coordinate, so the
-/// determinant of the doubles' differences u, v, w (each coordinate at most M in size and
-/// off by at most E, the two vertices' ulps) is within 6 E (3 M^2 + 3 M E + E^2) of the
-/// exact one; orient3d's filter bounds its own rounding. Rounding the vertices of
-/// 100071_sf's insertion otherwise ran 42,229 vertices' stars through GMP rationals (3.9 s,
-/// against 12.7 s for the insertion itself).
+/// orient3d's sign on the exact positions of a tet of the result when its doubles
+/// decide it, 0 when they cannot.
 inline int orientation_from_doubles(const inserted_mesh& r, const tet_indices& t) {
     std::array<vec3, 4> p;
-    std::array<double, 4> slack{};
+    std::array<bool, 4> exact{};
     for (std::size_t i = 0; i < 4; ++i) {
         p[i] = r.vertices[t[i]];
-        if (r.is_exact_double(t[i])) continue;
-        for (int k = 0; k < 3; ++k) {
-            const double a = std::abs(p[i][k]);
-            slack[i] = std::max(slack[i], std::nextafter(a, INFINITY) - a);
-        }
+        exact[i] = r.is_exact_double(t[i]);
     }
-    double m = 0, e = 0;
-    for (std::size_t i = 1; i < 4; ++i)
-        for (int k = 0; k < 3; ++k) m = std::max(m, std::abs(p[i][k] - p[0][k]));
-    m *= 1 + 0x1p-52; // the exact differences, not their rounding
-    for (std::size_t i = 1; i < 4; ++i) e = std::max(e, slack[0] + slack[i]);
-    // Far from underflow and overflow, where the bound below is itself accurate.
-    if (!(m > 1e-80 && m < 1e80) || !(e < m)) return 0;
-    const auto [det, rounding] = orient3d_with_bound(p[0], p[1], p[2], p[3]);
-    // 1% more covers the rounding of this sum.
-    const double bound = 1.01 * (rounding + 6 * e * (3 * m * m + 3 * m * e + e * e));
-    return det > bound ? 1 : -det > bound ? -1 : 0;
+    return orientation_from_doubles(p, exact);
 }
 
 } // namespace detail

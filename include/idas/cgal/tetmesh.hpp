@@ -18,6 +18,7 @@
 #include <idas/mesh/sizing_field.hpp>
 #include <idas/mesh/tet_quality.hpp>
 
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include <atomic>
@@ -321,6 +322,23 @@ inline void label(const winding_number& w, const std::vector<vec3>& V,
     });
 }
 
+/// Whether some tet's centroid has a winding number above 1/2. Stops at the first one:
+/// on a closed input that is among the first few tets looked at, where labelling every
+/// tet of the inserted mesh costs as much as the insertion.
+inline bool any_inside(const winding_number& w, const std::vector<vec3>& V,
+                       const std::vector<tet_indices>& T) {
+    std::atomic<bool> found{false};
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, T.size(), 256), [&](const auto& range) {
+        for (std::size_t t = range.begin(); t != range.end(); ++t) {
+            if (found.load(std::memory_order_relaxed)) return;
+            const auto& tv = T[t];
+            if (w((V[tv[0]] + V[tv[1]] + V[tv[2]] + V[tv[3]]) * 0.25) > 0.5)
+                found.store(true, std::memory_order_relaxed);
+        }
+    });
+    return found.load();
+}
+
 } // namespace detail
 
 /// Part 1 of tetrahedral meshing: exact insertion with inside and outside. Throws
@@ -511,15 +529,10 @@ volume_mesh mesh_volume(const std::vector<vec3>& vertices, const std::vector<tri
     auto t0 = clock::now();
     const insertion::inserted_mesh& M = part1.mesh;
     const winding_number w(soup.vertices, soup.faces);
-    {
-        // Nothing inside (a flat or open sheet): say so before optimizing anything.
-        std::vector<double> wn;
-        std::vector<std::uint8_t> in;
-        detail::label(w, M.vertices, M.tets, wn, in);
-        if (std::find(in.begin(), in.end(), 1) == in.end())
-            throw input_error(source + ": the input encloses no volume (no tet has a winding "
-                                       "number above 1/2)");
-    }
+    // Nothing inside (a flat or open sheet): say so before optimizing anything.
+    if (!detail::any_inside(w, M.vertices, M.tets))
+        throw input_error(source + ": the input encloses no volume (no tet has a winding "
+                                   "number above 1/2)");
     tet_mesh<> m(M.vertices, M.tets, tet_mesh<>::orientation_checked_by_caller{});
     auto tracked = m.add_tet_attribute<std::uint8_t>("tracked", 0);
     {
