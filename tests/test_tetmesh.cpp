@@ -349,6 +349,29 @@ TEST_CASE("tetmesh: bad inputs are refused with input_error") {
     CHECK(flat.stats.inside_tets == 0);
 }
 
+TEST_CASE("winding number: the hierarchy is within 1e-2 of the exact sum around blub") {
+    // Random points in and around blub's box against the sum of every solid angle. With
+    // the far field cut to its first term at the default beta of 2, the largest error
+    // here is several times the bound.
+    const io::surface s = io::read_surface(data("blub.obj"));
+    const winding_number w(s.vertices, s.faces);
+    vec3 lo = s.vertices[0], hi = lo;
+    for (const vec3& p : s.vertices)
+        for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], p[k]), hi[k] = std::max(hi[k], p[k]);
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<double> u(-0.1, 1.1);
+    double worst = 0;
+    for (int i = 0; i < 150; ++i) {
+        const vec3 p{lo.x + (hi.x - lo.x) * u(rng), lo.y + (hi.y - lo.y) * u(rng),
+                     lo.z + (hi.z - lo.z) * u(rng)};
+        double sum = 0;
+        for (const auto& t : s.faces)
+            sum += solid_angle(p, s.vertices[t[0]], s.vertices[t[1]], s.vertices[t[2]]);
+        worst = std::max(worst, std::abs(w(p) - sum / (4 * std::acos(-1.0))));
+    }
+    CHECK(worst < 1e-2);
+}
+
 TEST_CASE("winding number: 1 inside a closed surface, 0 outside, near and far") {
     const io::surface s = io::read_surface(data("sphere.obj"));
     const winding_number w(s.vertices, s.faces);
