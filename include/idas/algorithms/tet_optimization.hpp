@@ -27,7 +27,8 @@
 //      last, one collapse pass at the full target length
 //
 // What must stay: the tracked surface (a tracked face is never swapped away, a surface
-// vertex moves or vanishes only within the envelope), its border and intersection curves
+// vertex moves or vanishes only within the envelope, and into another surface vertex
+// only along a tracked edge), its border and intersection curves
 // (feature vertices never move, and vanish only where the curve stays: into a vertex all
 // but on them, or as an inner point of a straight piece of the curve), and the bounding
 // box (a vertex on a box plane stays on it: splits keep the coordinate, collapses need the
@@ -216,6 +217,20 @@ bool straight_on_feature_curve(const Mesh& m, const tet_optimization_state& s, i
     const vec3 pa = m.position(a), ac = m.position(c) - pa, ab = m.position(b) - pa;
     const double along = dot(ab, ac), ac2 = dot(ac, ac);
     return along > 0 && along < ac2 && squared_norm(cross(ab, ac)) <= 1e-18 * ac2 * ac2;
+}
+
+/// Whether edge ab is an edge of a tracked face.
+template <class Mesh>
+bool on_tracked_edge(const Mesh& m, const tet_optimization_state& s, index_t a, index_t b) {
+    tracked_faces faces;
+    for (index_t g : m.vertex_tets(b)) {
+        if (!tet_local::contains(m.tet_vertices(g), a)) continue;
+        faces.clear();
+        gather_tracked(m, s, g, faces);
+        for (const auto& k : faces)
+            if (has(k, a) && has(k, b)) return true;
+    }
+    return false;
 }
 
 template <class Mesh>
@@ -474,10 +489,11 @@ struct tet_collapse_spec : tet_optimization_invariants<Envelope> {
     }
 
     /// The cheap refusals first, before the operation's link condition: b must be allowed
-    /// to vanish into a (a feature vertex only where its curve stays, and a on every box
-    /// plane b is on), and the largest energy of the tets of b's star may not rise. A
-    /// surface vertex may go into any vertex, as in fTetWild: the envelope invariant
-    /// decides whether its faces may follow.
+    /// to vanish into a (a feature vertex only where its curve stays, a on every box
+    /// plane b is on, two surface vertices only along a tracked edge), and the largest
+    /// energy of the tets of b's star may not rise. A surface vertex may go into a vertex
+    /// off the surface, as in fTetWild: the envelope invariant decides whether its faces
+    /// may follow.
     template <class Mesh>
     bool should_process(op::collapse_edge, const Mesh& m, const queue_entry<tet_tuple>& e) const {
         const tet_tuple& t = e.tuple;
@@ -494,6 +510,12 @@ struct tet_collapse_spec : tet_optimization_invariants<Envelope> {
             return false;
         const std::uint8_t pb = s.box_planes(m.position(b));
         if ((pb & s.box_planes(m.position(a))) != pb) return false;
+        // Two surface vertices merge only along a tracked edge: through the volume the
+        // collapse would pinch the tracked surface (an edge in three tracked faces, which
+        // then freezes its feature vertices and the slivers around them).
+        if ((kind[b] & tet_vertex::surface) && (kind[a] & tet_vertex::surface) &&
+            !detail::on_tracked_edge(m, s, a, b))
+            return false;
         const auto p = m.positions();
         // A surface vertex going into a vertex off the surface: the survivor must at least
         // be inside the envelope itself (one point test before the faces' tests).
