@@ -102,6 +102,27 @@ std::size_t insert_and_check(const std::vector<vec3>& v, const std::vector<tri_i
     return covered;
 }
 
+/// n random triangles in the unit cube (fixed seed). With needles, every other one has its
+/// third corner 1e-7 to 1e-12 of its length off the edge of the first two.
+std::pair<std::vector<vec3>, std::vector<tri_indices>> random_soup(unsigned seed, int n,
+                                                                   bool needles) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> u(0, 1);
+    std::vector<vec3> v;
+    std::vector<tri_indices> f;
+    for (int i = 0; i < n; ++i) {
+        const vec3 a{u(rng), u(rng), u(rng)}, b{u(rng), u(rng), u(rng)};
+        vec3 c{u(rng), u(rng), u(rng)};
+        if (needles && i % 2 == 0) {
+            const vec3 side = cross(b - a, c);
+            c = a + (b - a) * u(rng) + side * (std::pow(10.0, -7 - i % 6) / norm(side));
+        }
+        v.insert(v.end(), {a, b, c});
+        f.push_back({index_t(3 * i), index_t(3 * i + 1), index_t(3 * i + 2)});
+    }
+    return {v, f};
+}
+
 /// Signed volume enclosed by a closed, outward-oriented surface.
 double enclosed_volume(const std::vector<vec3>& v, const std::vector<tri_indices>& f) {
     double s = 0;
@@ -153,14 +174,7 @@ TEST_CASE("triangle insertion: a triangle lying on a face of the background") {
 
 TEST_CASE("triangle insertion: random soups of intersecting triangles (fixed seeds)") {
     for (unsigned seed : {1u, 2u, 3u}) {
-        std::mt19937 rng(seed);
-        std::uniform_real_distribution<double> u(0, 1);
-        std::vector<vec3> v;
-        std::vector<tri_indices> f;
-        for (int i = 0; i < 12; ++i) {
-            for (int k = 0; k < 3; ++k) v.push_back({u(rng), u(rng), u(rng)});
-            f.push_back({index_t(3 * i), index_t(3 * i + 1), index_t(3 * i + 2)});
-        }
+        const auto [v, f] = random_soup(seed, 12, false);
         CAPTURE(seed);
         CHECK(insert_and_check(v, f) == f.size());
     }
@@ -258,20 +272,7 @@ TEST_CASE("triangle insertion: needle triangles crossing ordinary ones are cover
     // With the former filters (margins relative to the computed normals), seeds 4, 6 and 8
     // stopped with "a cone made a flat tet".
     for (unsigned seed : {4u, 6u, 8u}) {
-        std::mt19937 rng(seed);
-        std::uniform_real_distribution<double> u(0, 1);
-        std::vector<vec3> v;
-        std::vector<tri_indices> f;
-        for (int i = 0; i < 10; ++i) {
-            const vec3 a{u(rng), u(rng), u(rng)}, b{u(rng), u(rng), u(rng)};
-            vec3 c{u(rng), u(rng), u(rng)};
-            if (i % 2 == 0) { // a needle: the third corner 1e-7 to 1e-12 off the long edge
-                const vec3 side = cross(b - a, c);
-                c = a + (b - a) * u(rng) + side * (std::pow(10.0, -7 - i % 6) / norm(side));
-            }
-            v.insert(v.end(), {a, b, c});
-            f.push_back({index_t(3 * i), index_t(3 * i + 1), index_t(3 * i + 2)});
-        }
+        const auto [v, f] = random_soup(seed, 10, true);
         CAPTURE(seed);
         CHECK(insert_and_check(v, f) == f.size());
     }
