@@ -123,6 +123,22 @@ std::pair<std::vector<vec3>, std::vector<tri_indices>> random_soup(unsigned seed
     return {v, f};
 }
 
+/// The smallest box around the points.
+std::pair<vec3, vec3> box_of(const std::vector<vec3>& v) {
+    vec3 lo = v[0], hi = v[0];
+    for (const vec3& p : v)
+        for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], p[k]), hi[k] = std::max(hi[k], p[k]);
+    return {lo, hi};
+}
+
+/// The winding number at p by the sum of every triangle's solid angle.
+double exact_winding(const io::surface& s, const vec3& p) {
+    double sum = 0;
+    for (const auto& t : s.faces)
+        sum += solid_angle(p, s.vertices[t[0]], s.vertices[t[1]], s.vertices[t[2]]);
+    return sum / (4 * std::acos(-1.0));
+}
+
 /// Signed volume enclosed by a closed, outward-oriented surface.
 double enclosed_volume(const std::vector<vec3>& v, const std::vector<tri_indices>& f) {
     double s = 0;
@@ -356,19 +372,14 @@ TEST_CASE("winding number: the hierarchy is within 1e-2 of the exact sum around 
     // here is several times the bound.
     const io::surface s = io::read_surface(data("blub.obj"));
     const winding_number w(s.vertices, s.faces);
-    vec3 lo = s.vertices[0], hi = lo;
-    for (const vec3& p : s.vertices)
-        for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], p[k]), hi[k] = std::max(hi[k], p[k]);
+    const auto [lo, hi] = box_of(s.vertices);
     std::mt19937 rng(3);
     std::uniform_real_distribution<double> u(-0.1, 1.1);
     double worst = 0;
     for (int i = 0; i < 150; ++i) {
         const vec3 p{lo.x + (hi.x - lo.x) * u(rng), lo.y + (hi.y - lo.y) * u(rng),
                      lo.z + (hi.z - lo.z) * u(rng)};
-        double sum = 0;
-        for (const auto& t : s.faces)
-            sum += solid_angle(p, s.vertices[t[0]], s.vertices[t[1]], s.vertices[t[2]]);
-        worst = std::max(worst, std::abs(w(p) - sum / (4 * std::acos(-1.0))));
+        worst = std::max(worst, std::abs(w(p) - exact_winding(s, p)));
     }
     CHECK(worst < 1e-2);
 }
@@ -376,19 +387,14 @@ TEST_CASE("winding number: the hierarchy is within 1e-2 of the exact sum around 
 TEST_CASE("winding number: 1 inside a closed surface, 0 outside, near and far") {
     const io::surface s = io::read_surface(data("sphere.obj"));
     const winding_number w(s.vertices, s.faces);
-    vec3 lo = s.vertices[0], hi = lo;
-    for (const vec3& p : s.vertices)
-        for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], p[k]), hi[k] = std::max(hi[k], p[k]);
+    const auto [lo, hi] = box_of(s.vertices);
     const vec3 c = (lo + hi) * 0.5, d = hi - lo;
     CHECK(w(c) == doctest::Approx(1.0).epsilon(1e-3));
     CHECK(w(c + d * 3.0) == doctest::Approx(0.0).epsilon(1e-3));
     CHECK(std::abs(w(c + d * 100.0)) < 1e-3);
     // Brute force agrees with the hierarchy at a point near the surface.
     const vec3 p = s.vertices[0] * 1.01 + c * (-0.01);
-    double sum = 0;
-    for (const auto& t : s.faces)
-        sum += solid_angle(p, s.vertices[t[0]], s.vertices[t[1]], s.vertices[t[2]]);
-    CHECK(w(p) == doctest::Approx(sum / (4 * std::acos(-1.0))).epsilon(1e-2));
+    CHECK(w(p) == doctest::Approx(exact_winding(s, p)).epsilon(1e-2));
 }
 
 #endif
