@@ -256,10 +256,9 @@ TEST_CASE("triangle insertion: the plane filters never contradict the exact sign
         const vec3 side = cross(b - a, vec3{u(rng), u(rng), u(rng)});
         const vec3 c =
             (a + b) * 0.5 + side * ((i % 3 == 0 ? 0.5 : thin * norm(b - a)) / norm(side));
+        const auto edges = insertion::detail::edge_planes({a, b, c});
         insertion::detail::exact_plane planes[4] = {insertion::detail::plane_through(a, b, c),
-                                                    insertion::detail::edge_plane({a, b, c}, 0),
-                                                    insertion::detail::edge_plane({a, b, c}, 1),
-                                                    insertion::detail::edge_plane({a, b, c}, 2)};
+                                                    edges[0], edges[1], edges[2]};
         insertion::detail::make_exact(planes[0]);
         if (sgn(planes[0].n[0]) == 0 && sgn(planes[0].n[1]) == 0 && sgn(planes[0].n[2]) == 0)
             continue; // the corners rounded onto one line

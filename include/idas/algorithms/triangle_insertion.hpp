@@ -243,23 +243,31 @@ inline exact_plane plane_through(const vec3& a, const vec3& b, const vec3& c) {
     return pl;
 }
 
-/// The plane through edge e (from corner e to corner e + 1) of triangle (a, b, c),
-/// perpendicular to the triangle, with the triangle's third corner on its negative side.
-inline exact_plane edge_plane(const std::array<vec3, 3>& tri, int e) {
+/// The normal of the plane through edge (e0, e1) perpendicular to a triangle whose
+/// normal in doubles is n (within n_error per component), in doubles with its error bound.
+inline std::pair<vec3, double> approximate_edge_normal(const vec3& e0, const vec3& e1,
+                                                       const vec3& n, double n_error) {
+    const vec3 d = e1 - e0; // within one rounding of the exact difference
+    return {cross(d, n), cross_error(max_abs(d), unit_roundoff * max_abs(d), max_abs(n), n_error)};
+}
+
+/// The planes through the edges of triangle tri (edge e from corner e to corner e + 1),
+/// perpendicular to it, each with the triangle's third corner on its negative side. The
+/// triangle's normal is built once for the three, exactly and in doubles.
+inline std::array<exact_plane, 3> edge_planes(const std::array<vec3, 3>& tri) {
     const scaled_points s(tri);
     const int_vector n = cross(minus(s.P[1], s.P[0]), minus(s.P[2], s.P[0]));
-    const int_vector& E0 = s.P[std::size_t(e)];
-    const int_vector& E1 = s.P[std::size_t((e + 1) % 3)];
-    exact_plane pl;
-    s.set_plane(pl, cross(minus(E1, E0), n), E0);
-    const vec3 &e0 = tri[std::size_t(e)], &e1 = tri[std::size_t((e + 1) % 3)];
     const auto [n_approx, n_error] = approximate_normal(tri[0], tri[1], tri[2]);
-    const vec3 d = e1 - e0;
-    pl.normal = cross(d, n_approx);
-    pl.normal_error =
-        cross_error(max_abs(d), unit_roundoff * max_abs(d), max_abs(n_approx), n_error);
-    pl.anchor = e0;
-    return pl;
+    std::array<exact_plane, 3> out;
+    for (std::size_t e = 0; e < 3; ++e) {
+        const std::size_t f = (e + 1) % 3;
+        exact_plane& pl = out[e];
+        s.set_plane(pl, cross(minus(s.P[f], s.P[e]), n), s.P[e]);
+        std::tie(pl.normal, pl.normal_error) =
+            approximate_edge_normal(tri[e], tri[f], n_approx, n_error);
+        pl.anchor = tri[e];
+    }
+    return out;
 }
 
 /// Total order on exact points (x, then y, then z): the canonical "smallest corner".
@@ -298,10 +306,7 @@ inline bool may_meet(const vec3& a, const vec3& b, const vec3& c, const std::arr
     const auto [n, n_error] = approximate_normal(a, b, c);
     const std::array<std::array<const vec3*, 2>, 3> edges{{{&a, &b}, {&b, &c}, {&c, &a}}};
     for (const auto& e : edges) {
-        const vec3 edge = *e[1] - *e[0];
-        const vec3 m = cross(edge, n);
-        const double m_error =
-            cross_error(max_abs(edge), unit_roundoff * max_abs(edge), max_abs(n), n_error);
+        const auto [m, m_error] = approximate_edge_normal(*e[0], *e[1], n, n_error);
         bool outside = true;
         for (const vec3& q : p) {
             const vec3 d = q - *e[0];
@@ -355,17 +360,14 @@ inline bool meets_with_area(const vec3& a, const vec3& b, const vec3& c,
     const auto [n, n_error] = approximate_normal(a, b, c);
     // Exact planes, built only when the filters cannot decide.
     std::optional<exact_plane> plane;
+    std::optional<std::array<exact_plane, 3>> edge_plane;
     mpz_class Nfu, Dfu, Nfv, Dfv, Ngu, Dgu, Ngv, Dgv;
-    for (int e = 0; e < 3; ++e) {
-        const vec3 &e0 = tri[std::size_t(e)], &e1 = tri[std::size_t((e + 1) % 3)];
-        const vec3 edge = e1 - e0;
-        const vec3 m = cross(edge, n);
-        const double m_error =
-            cross_error(max_abs(edge), unit_roundoff * max_abs(edge), max_abs(n), n_error);
-        std::optional<exact_plane> g; // the edge plane, exactly
+    for (std::size_t e = 0; e < 3; ++e) {
+        const vec3 &e0 = tri[e], &e1 = tri[(e + 1) % 3];
+        const auto [m, m_error] = approximate_edge_normal(e0, e1, n, n_error);
         auto edge_value = [&](const vec3& x, mpz_class& N, mpz_class& D) {
-            if (!g) g = edge_plane(tri, e);
-            plane_value(*g, to_rational(x), N, D);
+            if (!edge_plane) edge_plane = edge_planes(tri);
+            plane_value((*edge_plane)[e], to_rational(x), N, D);
         };
         // Sign of the edge plane at section corner k.
         auto side = [&](const corner& k) {
@@ -751,12 +753,15 @@ private:
         if (auto it = plane_ids_.find(4ull * t); it != plane_ids_.end()) return it->second;
         return add_plane(4ull * t, plane_through(V[tri[0]], V[tri[1]], V[tri[2]]));
     }
+    /// The plane of edge e of triangle t; the first request adds all three.
     std::uint32_t triangle_edge_plane(index_t t, int e) {
         const std::uint64_t key = 4ull * t + std::uint64_t(e) + 1;
         if (auto it = plane_ids_.find(key); it != plane_ids_.end()) return it->second;
         const auto& tri = in_.triangles[t];
         const auto& V = in_.vertices;
-        return add_plane(key, edge_plane({V[tri[0]], V[tri[1]], V[tri[2]]}, e));
+        auto planes = edge_planes({V[tri[0]], V[tri[1]], V[tri[2]]});
+        for (std::uint64_t k = 0; k < 3; ++k) add_plane(4ull * t + k + 1, std::move(planes[k]));
+        return plane_ids_.at(key);
     }
 
     /// Sign of plane k at x, exactly.
