@@ -118,6 +118,34 @@ checked_run mesh_and_check(const char* name, unsigned threads, double edge_lengt
 
 } // namespace
 
+TEST_CASE("containment memo: the envelope is asked once per triangle, in any corner order") {
+    struct counting_envelope {
+        int* calls;
+        bool contains(const vec3& a, const vec3& b, const vec3& c) const {
+            ++*calls;
+            return a.x + b.x + c.x < 1.5; // depends on the corners, not their order
+        }
+    };
+    int calls = 0;
+    const counting_envelope env{&calls};
+    algorithms::containment_memo memo(1 << 12);
+    const vec3 a{0, 0, 0}, b{1, 0, 0}, c{0, 1, 0}, d{1, 1, 0};
+    CHECK(memo.contains(env, a, b, c));
+    CHECK(memo.contains(env, c, a, b));
+    CHECK(memo.contains(env, b, c, a));
+    CHECK(calls == 1);
+    CHECK(!memo.contains(env, b, c, d)); // another triangle: asked, and its own verdict
+    CHECK(!memo.contains(env, d, b, c));
+    CHECK(calls == 2);
+    CHECK(memo.contains(env, a, a, a)); // a point is a triangle too
+    CHECK(memo.contains(env, a, a, a));
+    CHECK(calls == 3);
+    // A corner one ulp away is another triangle.
+    const vec3 a2{std::nextafter(0.0, 1.0), 0, 0};
+    CHECK(memo.contains(env, a2, b, c));
+    CHECK(calls == 4);
+}
+
 TEST_CASE("tetmesh optimization: sphere to AMIPS at most 10, within the envelope both ways") {
     const auto s = io::read_surface(data_file("sphere.obj"));
     const auto run = mesh_and_check("sphere.obj", 1);

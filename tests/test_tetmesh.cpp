@@ -325,6 +325,89 @@ TEST_CASE("tetmesh: non-manifold, inconsistently oriented 37989_sf and open bunn
         CHECK(r.stats.inverted_tets == 0);
         CHECK(r.stats.inside_tets > 0);
         CHECK(r.stats.inside_tets < r.stats.tets);
+        // 37989_sf's parts touch along 232 edges. Closing the boundary by adding the
+        // outside tets around every non-manifold vertex, round after round (until session
+        // 22), added 8,967 tets to 11,730 inside ones after the optimization and took the
+        // boundary 19 units (90 epsilons) from the input; copies of the vertices part them.
+        auto V = r.mesh.vertices;
+        auto T = r.mesh.tets;
+        auto in = r.inside;
+        const auto before = tetmesh::detail::boundary_of(V.size(), T, in);
+        const std::size_t added = tetmesh::detail::close_boundary(V, T, in, true);
+        const auto after = tetmesh::detail::boundary_of(V.size(), T, in);
+        CHECK(after.non_manifold_edges == 0);
+        CHECK(after.bad_vertices.empty());
+        if (std::string(name) == "37989_sf.obj") {
+            CHECK(before.non_manifold_edges > 100);
+            CHECK(added < r.stats.inside_tets / 50);
+            CHECK(V.size() > r.mesh.vertices.size());
+        }
+    }
+}
+
+namespace {
+
+/// An nx x ny x 1 block of unit cubes, each cut into six positive tets (Kuhn's cut, the
+/// same diagonal in every cube, so the cubes' faces match); cube (i, j)'s tets are
+/// 6 (i + nx j) .. + 5.
+struct cube_block {
+    std::vector<vec3> V;
+    std::vector<tet_indices> T;
+};
+cube_block kuhn_block(int nx, int ny) {
+    cube_block b;
+    auto id = [&](int x, int y, int z) { return index_t(x + (nx + 1) * (y + (ny + 1) * z)); };
+    for (int z = 0; z <= 1; ++z)
+        for (int y = 0; y <= ny; ++y)
+            for (int x = 0; x <= nx; ++x) b.V.push_back(vec3{double(x), double(y), double(z)});
+    const int perms[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+    for (int j = 0; j < ny; ++j)
+        for (int i = 0; i < nx; ++i)
+            for (const auto& p : perms) {
+                int c[3] = {i, j, 0};
+                tet_indices t;
+                t[0] = id(c[0], c[1], c[2]);
+                for (int k = 0; k < 3; ++k) ++c[p[k]], t[k + 1] = id(c[0], c[1], c[2]);
+                const auto& V = b.V;
+                if (tet_signed_volume(V[t[0]], V[t[1]], V[t[2]], V[t[3]]) < 0)
+                    std::swap(t[2], t[3]);
+                b.T.push_back(t);
+            }
+    return b;
+}
+
+} // namespace
+
+TEST_CASE("tetmesh: solids touching along an edge are parted by copies of its vertices") {
+    // Cubes (0, 0) and (1, 1) of a 2 x 2 block are inside: they meet along the vertical
+    // edge x = y = 1 only, so its two ends are non-manifold vertices and the edge is in
+    // four boundary faces.
+    for (const bool split : {true, false}) {
+        CAPTURE(split);
+        cube_block b = kuhn_block(2, 2);
+        std::vector<std::uint8_t> in(b.T.size(), 0);
+        for (int cube : {0, 3})
+            for (int k = 0; k < 6; ++k) in[6 * cube + k] = 1;
+        const auto before = tetmesh::detail::boundary_of(b.V.size(), b.T, in);
+        CHECK(before.non_manifold_edges == 1);
+        const std::size_t vertices = b.V.size();
+        const std::size_t added = tetmesh::detail::close_boundary(b.V, b.T, in, split);
+        const auto after = tetmesh::detail::boundary_of(b.V.size(), b.T, in);
+        CHECK(after.non_manifold_edges == 0);
+        CHECK(after.bad_vertices.empty());
+        if (split) {
+            // Nothing added; one copy of each end of the edge, at the same place.
+            CHECK(added == 0);
+            CHECK(b.V.size() == vertices + 2);
+            CHECK(after.faces.size() == 24); // two closed cubes of 12 boundary triangles
+            for (std::size_t v = vertices; v < b.V.size(); ++v)
+                CHECK((b.V[v] == vec3{1, 1, 0} || b.V[v] == vec3{1, 1, 1}));
+        } else {
+            // Only tets around the edge are added (one of the two empty cubes at most).
+            CHECK(added > 0);
+            CHECK(added <= 6);
+            CHECK(b.V.size() == vertices);
+        }
     }
 }
 

@@ -56,6 +56,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <optional>
 #include <ranges>
@@ -106,6 +107,72 @@ struct no_round_observer {
     void operator()(unsigned, double) const noexcept {}
 };
 
+/// Verdicts of recent containment checks, by the exact corner positions. The envelope is
+/// fixed for a whole optimization, and a collapse the envelope refused is tried again, with
+/// the same faces, in every round: on blub, 73% of the checks repeat an earlier one.
+///
+/// One table for all threads, direct-mapped (a newer triangle takes its slot). Each slot is
+/// a sequence lock over atomic fields: a reader uses a slot only if its sequence number was
+/// even and unchanged across the read, and a writer that finds the slot busy leaves it, so
+/// a verdict is only ever reused for the very same triangle (the key is compared in full).
+class containment_memo {
+public:
+    /// A table of at least `slots` entries (rounded up to a power of two, at least 2^12).
+    explicit containment_memo(std::size_t slots)
+        : bits_(std::max(12, int(std::bit_width(std::max<std::size_t>(slots, 1) - 1))))
+        , table_(std::size_t(1) << bits_) {}
+
+    /// env.contains(a, b, c), remembered. Containment does not depend on the corners'
+    /// order, so they are sorted first.
+    template <triangle_envelope Envelope>
+    bool contains(const Envelope& env, vec3 a, vec3 b, vec3 c) {
+        auto before = [](const vec3& x, const vec3& y) {
+            return x.x != y.x ? x.x < y.x : x.y != y.y ? x.y < y.y : x.z < y.z;
+        };
+        if (before(b, a)) std::swap(a, b);
+        if (before(c, b)) std::swap(b, c);
+        if (before(b, a)) std::swap(a, b);
+        const std::array<double, 9> key{a.x, a.y, a.z, b.x, b.y, b.z, c.x, c.y, c.z};
+        std::uint64_t h = 0x9e3779b97f4a7c15ull;
+        for (const double x : key) {
+            std::uint64_t word;
+            std::memcpy(&word, &x, sizeof word);
+            h = (h ^ word) * 0xff51afd7ed558ccdull;
+            h ^= h >> 29;
+        }
+        entry& e = table_[h >> (64 - bits_)];
+        // Without fences (TSan does not model them): the fields are read with acquire, so
+        // the second read of the sequence comes after them, and written with release, so a
+        // reader that sees a new field also sees the odd sequence number before it.
+        const std::uint64_t seq = e.seq.load(std::memory_order_acquire);
+        if (!(seq & 1u)) {
+            bool same = true;
+            for (int k = 0; k < 9; ++k) same &= e.key[k].load(std::memory_order_acquire) == key[k];
+            const std::uint8_t verdict = e.verdict.load(std::memory_order_acquire);
+            if (same && verdict != unknown && e.seq.load(std::memory_order_relaxed) == seq)
+                return verdict == inside;
+        }
+        const bool in = env.contains(a, b, c);
+        std::uint64_t now = e.seq.load(std::memory_order_relaxed);
+        if (!(now & 1u) && e.seq.compare_exchange_strong(now, now + 1, std::memory_order_acq_rel)) {
+            for (int k = 0; k < 9; ++k) e.key[k].store(key[k], std::memory_order_release);
+            e.verdict.store(in ? inside : outside, std::memory_order_release);
+            e.seq.store(now + 2, std::memory_order_release);
+        }
+        return in;
+    }
+
+private:
+    enum : std::uint8_t { unknown, outside, inside };
+    struct entry {
+        std::atomic<std::uint64_t> seq{0};
+        std::array<std::atomic<double>, 9> key{};
+        std::atomic<std::uint8_t> verdict{unknown};
+    };
+    int bits_;
+    std::vector<entry> table_;
+};
+
 /// What the phase specs share. The attribute columns belong to the run.
 struct tet_optimization_state {
     double swap_above = 4;
@@ -118,6 +185,8 @@ struct tet_optimization_state {
     const std::unordered_map<index_t, rational_point>* exact = nullptr;
     const triangle_aabb_tree* input = nullptr; ///< the input surface, for projection
     vec3 box_lo{}, box_hi{};                   ///< the background's bounding box
+    /// Remembered containment verdicts (see containment_memo).
+    containment_memo* verdicts = nullptr;
 
     /// Which box planes p lies on: bit 2k for the low plane of axis k, 2k+1 for the high.
     std::uint8_t box_planes(const vec3& p) const noexcept {
@@ -314,22 +383,42 @@ struct exact_orientation {
 };
 
 /// Invariant: every tracked face of the new tets lies inside the envelope.
+///
+/// Only faces whose geometry is new are tested: a tracked face that an operation keeps
+/// (same corners, unmoved) was tested when it was made. A split, a collapse and a smoothing
+/// move or create one vertex, their anchor, so only the faces through it are new; a swap
+/// never changes a tracked face (the specs refuse swaps that would remove one, and the
+/// faces a swap creates inside its ring are never tracked). Any other operation has all
+/// its tracked faces tested.
 template <triangle_envelope Envelope>
 struct tracked_in_envelope {
     const Envelope* envelope = nullptr;
     const tet_optimization_state* s = nullptr;
     struct state {};
 
+    template <class Op>
+    static constexpr bool moves_anchor_only =
+        std::is_same_v<Op, op::split_tet_edge> || std::is_same_v<Op, op::collapse_edge> ||
+        std::is_same_v<Op, op::smooth_vertex>;
+    template <class Op>
+    static constexpr bool keeps_tracked_faces =
+        std::is_same_v<Op, op::face_swap_23> || std::is_same_v<Op, op::edge_swap_32> ||
+        std::is_same_v<Op, op::edge_swap_44> || std::is_same_v<Op, op::edge_removal>;
+
     template <class Op, class Mesh, class Result>
     bool after(Op, const Mesh& m, const Result& r, state&) const {
+        if constexpr (keeps_tracked_faces<Op>) return true;
         const auto p = m.positions();
         const auto tracked = m.attribute(s->tracked);
         for (const auto& c : r.cells) {
             const std::uint8_t bits = tracked[c.tid];
             if (!bits) continue;
             const auto& tv = m.tet_vertices(c.tid);
+            // The local face opposite the anchor is the one face of the tet without it.
+            std::uint8_t unchanged = 4;
+            if constexpr (moves_anchor_only<Op>) unchanged = tet_local::index_of(tv, r.anchor.vid);
             for (std::uint8_t lf = 0; lf < 4; ++lf) {
-                if (!(bits >> lf & 1u)) continue;
+                if (!(bits >> lf & 1u) || lf == unchanged) continue;
                 // Each tracked face is in two new tets; test it from the one that holds it
                 // with the smaller slot, or from the only one.
                 const index_t other = m.connectivity().opposite_tet(c.tid, lf);
@@ -338,7 +427,8 @@ struct tracked_in_envelope {
                                 [&](const tet_tuple& x) { return x.tid == other; }))
                     continue;
                 const auto f = tet_local::face_vertices[lf];
-                if (!envelope->contains(p[tv[f[0]]], p[tv[f[1]]], p[tv[f[2]]])) return false;
+                if (!s->verdicts->contains(*envelope, p[tv[f[0]]], p[tv[f[1]]], p[tv[f[2]]]))
+                    return false;
             }
         }
         return true;
@@ -520,7 +610,7 @@ struct tet_collapse_spec : tet_optimization_invariants<Envelope> {
         // A surface vertex going into a vertex off the surface: the survivor must at least
         // be inside the envelope itself (one point test before the faces' tests).
         if ((kind[b] & tet_vertex::surface) && !(kind[a] & tet_vertex::surface) &&
-            !this->envelope.contains(p[a], p[a], p[a]))
+            !s.verdicts->contains(this->envelope, p[a], p[a], p[a]))
             return false;
         double old_max = 0, new_max = 0;
         for (index_t g : m.vertex_tets(b)) {
@@ -862,6 +952,12 @@ struct tet_optimization {
                                        Observer&& observer, const Sizing& sizing) {
         const auto start = std::chrono::steady_clock::now();
         tet_optimization_state s;
+        // Four slots per tracked face (counted from both of its tets).
+        std::size_t tracked_faces = 0;
+        for (index_t g = 0; g < m.tet_slots(); ++g)
+            if (m.tet_alive(g)) tracked_faces += std::popcount(m.attribute(tracked)[g]);
+        containment_memo verdicts(2 * tracked_faces);
+        s.verdicts = &verdicts;
         s.swap_above = o.swap_above;
         s.tracked = tracked, s.exact = &exact, s.input = &input;
         const temporary_attribute kind(

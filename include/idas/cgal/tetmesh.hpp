@@ -18,13 +18,16 @@
 #include <idas/mesh/sizing_field.hpp>
 #include <idas/mesh/tet_quality.hpp>
 
+#include <boost/container/small_vector.hpp>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
 #include <map>
+#include <span>
 #include <string>
 #include <type_traits>
 #include <unordered_map>
@@ -485,22 +488,153 @@ inline inside_boundary boundary_of(std::size_t n_vertices, const std::vector<tet
     return out;
 }
 
-/// Makes the inside's boundary a closed 2-manifold by adding outside tets around its
-/// non-manifold edges and vertices (each round adds at least one tet, and the whole box is
-/// a closed manifold, so it ends). Returns how many tets were added.
-inline std::size_t close_boundary(std::size_t n_vertices, const std::vector<tet_indices>& T,
-                                  std::vector<std::uint8_t>& in) {
-    const auto [first, star] = insertion::detail::vertex_stars(n_vertices, T);
+/// Groups of the tets `in_group` of v's star that share faces through v (components of
+/// v's link): group[k] is the group of star tet k, or -1 for a tet not in_group. Returns
+/// the number of groups.
+template <class InGroup>
+int star_groups(index_t v, std::span<const index_t> star, const std::vector<tet_indices>& T,
+                InGroup&& in_group, std::vector<int>& group) {
+    group.assign(star.size(), -1);
+    // Two tets of v's star share a face through v iff they share two vertices besides v.
+    auto share_face = [&](index_t s, index_t t) {
+        int common = 0;
+        for (index_t x : T[s])
+            if (x != v && tet_local::contains(T[t], x)) ++common;
+        return common == 2;
+    };
+    int groups = 0;
+    std::vector<std::size_t> todo;
+    for (std::size_t k = 0; k < star.size(); ++k) {
+        if (group[k] >= 0 || !in_group(star[k])) continue;
+        group[k] = groups;
+        todo.assign(1, k);
+        while (!todo.empty()) {
+            const std::size_t i = todo.back();
+            todo.pop_back();
+            for (std::size_t j = 0; j < star.size(); ++j)
+                if (group[j] < 0 && in_group(star[j]) && share_face(star[i], star[j]))
+                    group[j] = groups, todo.push_back(j);
+        }
+        ++groups;
+    }
+    return groups;
+}
+
+/// Whether the tets of group g of v's star (see star_groups) form a disk around v: their
+/// faces opposite v (a region of v's link, a sphere) have one boundary cycle. The region
+/// is connected across edges, so it is a disk iff its Euler characteristic is 1 and every
+/// boundary vertex is on exactly two boundary edges (no pinch).
+inline bool group_is_disk(index_t v, std::span<const index_t> star,
+                          const std::vector<tet_indices>& T, const std::vector<int>& group, int g) {
+    boost::container::small_vector<std::pair<index_t, index_t>, 96> edges;
+    boost::container::small_vector<index_t, 48> corners;
+    long faces = 0;
+    for (std::size_t k = 0; k < star.size(); ++k) {
+        if (group[k] != g) continue;
+        ++faces;
+        index_t x[3];
+        int n = 0;
+        for (index_t y : T[star[k]])
+            if (y != v) x[n++] = y;
+        for (int i = 0; i < 3; ++i) {
+            corners.push_back(x[i]);
+            edges.push_back(std::minmax(x[i], x[(i + 1) % 3]));
+        }
+    }
+    std::sort(corners.begin(), corners.end());
+    corners.erase(std::unique(corners.begin(), corners.end()), corners.end());
+    std::sort(edges.begin(), edges.end());
+    long distinct_edges = 0;
+    boost::container::small_vector<index_t, 48> boundary_ends;
+    for (std::size_t i = 0; i < edges.size();) {
+        std::size_t j = i + 1;
+        while (j < edges.size() && edges[j] == edges[i]) ++j;
+        ++distinct_edges;
+        if (j - i == 1) {
+            boundary_ends.push_back(edges[i].first);
+            boundary_ends.push_back(edges[i].second);
+        }
+        i = j;
+    }
+    if (long(corners.size()) - distinct_edges + faces != 1) return false;
+    std::sort(boundary_ends.begin(), boundary_ends.end());
+    for (std::size_t i = 0; i < boundary_ends.size();) {
+        std::size_t j = i + 1;
+        while (j < boundary_ends.size() && boundary_ends[j] == boundary_ends[i]) ++j;
+        if (j - i != 2) return false;
+        i = j;
+    }
+    return true;
+}
+
+/// Makes the inside's boundary a closed 2-manifold, locally, vertex by vertex, where it is
+/// not one (round after round until it is):
+///  * inside tets that meet at a vertex v only along edges or at v itself (two solids
+///    touching, as in many CAD soups: 37989_sf has 232 edges in four faces) are parted:
+///    with `may_split_vertices`, when each group of inside tets sharing faces through v is
+///    a disk around v, every group but the first gets its own copy of v (appended to V),
+///    so nothing is added and the boundary stays on the input. The outside tets keep v,
+///    so this is only for an output of the inside;
+///  * in a round where no vertex could be parted, the outside tets around each bad vertex
+///    fill every gap but the largest (the outside groups of its star): a group that wraps
+///    around a gap closes it;
+///  * where neither changes anything, the bad vertices' whole stars are made inside (each
+///    such step adds a tet, and the whole box is a closed manifold, so the rounds end).
+/// Returns how many tets were made inside.
+inline std::size_t close_boundary(std::vector<vec3>& V, std::vector<tet_indices>& T,
+                                  std::vector<std::uint8_t>& in, bool may_split_vertices) {
     std::size_t added = 0;
+    std::vector<int> group;
     for (;;) {
-        const inside_boundary b = boundary_of(n_vertices, T, in);
-        if (b.bad_edge_vertices.empty() && b.bad_vertices.empty()) return added;
-        std::size_t before = added;
-        for (const auto* list : {&b.bad_edge_vertices, &b.bad_vertices})
-            for (index_t v : *list)
-                for (index_t k = first[v]; k < first[v + 1]; ++k)
-                    if (!in[star[k]]) in[star[k]] = 1, ++added;
-        if (added == before) return added; // cannot happen; no endless loop either way
+        const inside_boundary b = boundary_of(V.size(), T, in);
+        std::vector<index_t> bad = b.bad_edge_vertices;
+        bad.insert(bad.end(), b.bad_vertices.begin(), b.bad_vertices.end());
+        std::sort(bad.begin(), bad.end());
+        bad.erase(std::unique(bad.begin(), bad.end()), bad.end());
+        if (bad.empty()) return added;
+        const auto [first, star] = insertion::detail::vertex_stars(V.size(), T);
+        auto star_of = [&](index_t v) {
+            return std::span<const index_t>(star.data() + first[v], first[v + 1] - first[v]);
+        };
+        auto is_in = [&](index_t t) { return in[t] != 0; };
+        bool changed = false;
+        if (may_split_vertices)
+            for (index_t v : bad) {
+                const auto st = star_of(v);
+                const int groups = star_groups(v, st, T, is_in, group);
+                if (groups < 2) continue;
+                bool disks = true;
+                for (int g = 0; g < groups && disks; ++g) disks = group_is_disk(v, st, T, group, g);
+                if (!disks) continue;
+                for (int g = 1; g < groups; ++g) {
+                    const index_t copy = index_t(V.size());
+                    V.push_back(V[v]);
+                    for (std::size_t k = 0; k < st.size(); ++k)
+                        if (group[k] == g)
+                            for (index_t& x : T[st[k]])
+                                if (x == v) x = copy;
+                }
+                changed = true;
+            }
+        if (changed) continue;
+        for (index_t v : bad) {
+            const auto st = star_of(v);
+            const int gaps = star_groups(
+                v, st, T, [&](index_t t) { return in[t] == 0; }, group);
+            if (gaps < 2) continue;
+            std::vector<std::size_t> size(gaps, 0);
+            for (int g : group)
+                if (g >= 0) ++size[g];
+            const int largest = int(std::max_element(size.begin(), size.end()) - size.begin());
+            for (std::size_t k = 0; k < st.size(); ++k)
+                if (group[k] >= 0 && group[k] != largest && !in[st[k]])
+                    in[st[k]] = 1, ++added, changed = true;
+        }
+        if (changed) continue;
+        for (index_t v : bad)
+            for (index_t t : star_of(v))
+                if (!in[t]) in[t] = 1, ++added, changed = true;
+        if (!changed) return added; // cannot happen; no endless loop either way
     }
 }
 
@@ -578,7 +712,7 @@ volume_mesh mesh_volume(const std::vector<vec3>& vertices, const std::vector<tri
     if (qr.inside_tets == 0)
         throw input_error(source + ": the input encloses no volume (no tet has a winding "
                                    "number above 1/2)");
-    qr.added_for_manifold = detail::close_boundary(V.size(), T, out.inside);
+    qr.added_for_manifold = detail::close_boundary(V, T, out.inside, !q.keep_outside);
     const detail::inside_boundary b = detail::boundary_of(V.size(), T, out.inside);
     qr.boundary_faces = b.faces.size();
     qr.non_manifold_edges = b.non_manifold_edges;
