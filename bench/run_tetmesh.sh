@@ -3,7 +3,8 @@
 # --json` at 1 and 2 threads beside fTetWild at 1 thread (FTETWILD=path/to/FloatTetwild_bin,
 # built by ../shared/peers/build_ftetwild.sh), same epsilon (1e-3) and edge length (1/20 of
 # the diagonal, or EDGE if set: both tools get it), on the inputs in INPUTS; THREADS lists
-# idas's thread counts (default "1 2").
+# idas's thread counts (default "1 2"), FTETWILD_THREADS fTetWild's (default 1). The 16-core
+# comparison of bench/RESULTS.md: THREADS=16 FTETWILD_THREADS=16.
 #   usage: bench/run_tetmesh.sh [IDAS_BINARY]   (default build/release/examples/idas)
 # Prints one line per run; copy the table into bench/RESULTS.md by hand.
 set -euo pipefail
@@ -35,16 +36,18 @@ print('%-16s %-8s %3s %8d %8d %8.2f %8.3g %8.2f %7d %7s %6s %9s %9.2f %.2f' % (s
 PY
     done
     if [ -n "${FTETWILD:-}" ]; then
-        start=$(date +%s.%N)
-        if timeout "${LIMIT:-900}" "$FTETWILD" -i "$DATA/$f" -o "$TMP/ftw" --max-threads 1 --level 2 "${FTW_EDGE[@]}" \
-            >"$TMP/ftw.log" 2>&1; then
-            end=$(date +%s.%N)
-            opt=$(grep -i "mesh optimization" "$TMP/ftw.log" | grep -oE "[0-9]+\.[0-9]+s" | head -1)
-            tets=$(grep -oE "#t = [0-9]+" "$TMP/ftw.log" | tail -1)
-            printf '%-16s %-8s %3s %s optimization %s total %.2f\n' "$f" fTetWild 1 "$tets" "$opt" \
-                "$(echo "$end - $start" | bc)"
-        else
-            echo "$f fTetWild 1: failed"
-        fi
+        for ft in ${FTETWILD_THREADS:-1}; do
+            start=$(date +%s.%N)
+            if timeout "${LIMIT:-900}" "$FTETWILD" -i "$DATA/$f" -o "$TMP/ftw" --max-threads "$ft" --level 2 \
+                "${FTW_EDGE[@]}" >"$TMP/ftw.log" 2>&1; then
+                end=$(date +%s.%N)
+                opt=$(grep -i "mesh optimization" "$TMP/ftw.log" | grep -oE "[0-9]+\.[0-9]+s" | head -1)
+                tets=$(grep -oE "#t = [0-9]+" "$TMP/ftw.log" | tail -1)
+                printf '%-16s %-8s %3s %s optimization %s total %.2f\n' "$f" fTetWild "$ft" "$tets" "$opt" \
+                    "$(echo "$end - $start" | bc)"
+            else
+                echo "$f fTetWild $ft: failed"
+            fi
+        done
     fi
 done
