@@ -347,32 +347,33 @@ TEST_CASE("tetmesh: non-manifold, inconsistently oriented 37989_sf and open bunn
 
 namespace {
 
-/// An nx x ny x 1 block of unit cubes, each cut into six positive tets (Kuhn's cut, the
-/// same diagonal in every cube, so the cubes' faces match); cube (i, j)'s tets are
-/// 6 (i + nx j) .. + 5.
+/// An nx x ny x nz block of unit cubes, each cut into six positive tets (Kuhn's cut, the
+/// same diagonal in every cube, so the cubes' faces match); cube (i, j, k)'s tets are
+/// 6 (i + nx (j + ny k)) .. + 5.
 struct cube_block {
     std::vector<vec3> V;
     std::vector<tet_indices> T;
 };
-cube_block kuhn_block(int nx, int ny) {
+cube_block kuhn_block(int nx, int ny, int nz = 1) {
     cube_block b;
     auto id = [&](int x, int y, int z) { return index_t(x + (nx + 1) * (y + (ny + 1) * z)); };
-    for (int z = 0; z <= 1; ++z)
+    for (int z = 0; z <= nz; ++z)
         for (int y = 0; y <= ny; ++y)
             for (int x = 0; x <= nx; ++x) b.V.push_back(vec3{double(x), double(y), double(z)});
     const int perms[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
-    for (int j = 0; j < ny; ++j)
-        for (int i = 0; i < nx; ++i)
-            for (const auto& p : perms) {
-                int c[3] = {i, j, 0};
-                tet_indices t;
-                t[0] = id(c[0], c[1], c[2]);
-                for (int k = 0; k < 3; ++k) ++c[p[k]], t[k + 1] = id(c[0], c[1], c[2]);
-                const auto& V = b.V;
-                if (tet_signed_volume(V[t[0]], V[t[1]], V[t[2]], V[t[3]]) < 0)
-                    std::swap(t[2], t[3]);
-                b.T.push_back(t);
-            }
+    for (int k = 0; k < nz; ++k)
+        for (int j = 0; j < ny; ++j)
+            for (int i = 0; i < nx; ++i)
+                for (const auto& p : perms) {
+                    int c[3] = {i, j, k};
+                    tet_indices t;
+                    t[0] = id(c[0], c[1], c[2]);
+                    for (int q = 0; q < 3; ++q) ++c[p[q]], t[q + 1] = id(c[0], c[1], c[2]);
+                    const auto& V = b.V;
+                    if (tet_signed_volume(V[t[0]], V[t[1]], V[t[2]], V[t[3]]) < 0)
+                        std::swap(t[2], t[3]);
+                    b.T.push_back(t);
+                }
     return b;
 }
 
@@ -409,6 +410,23 @@ TEST_CASE("tetmesh: solids touching along an edge are parted by copies of its ve
             CHECK(b.V.size() == vertices);
         }
     }
+}
+
+TEST_CASE("tetmesh: solids touching at a vertex get a copy of it") {
+    // Cubes (0, 0, 0) and (1, 1, 1) of a 2 x 2 x 2 block meet at the centre only.
+    cube_block b = kuhn_block(2, 2, 2);
+    std::vector<std::uint8_t> in(b.T.size(), 0);
+    for (int cube : {0, 7})
+        for (int k = 0; k < 6; ++k) in[6 * cube + k] = 1;
+    CHECK(tetmesh::detail::boundary_of(b.V.size(), b.T, in).bad_vertices.size() == 1);
+    const std::size_t vertices = b.V.size();
+    CHECK(tetmesh::detail::close_boundary(b.V, b.T, in, true) == 0);
+    const auto after = tetmesh::detail::boundary_of(b.V.size(), b.T, in);
+    CHECK(after.non_manifold_edges == 0);
+    CHECK(after.bad_vertices.empty());
+    CHECK(after.faces.size() == 24);
+    REQUIRE(b.V.size() == vertices + 1);
+    CHECK(b.V.back() == vec3{1, 1, 1});
 }
 
 TEST_CASE("tetmesh: the result does not depend on the number of threads") {
