@@ -952,11 +952,12 @@ struct tet_optimization {
                                        Observer&& observer, const Sizing& sizing) {
         const auto start = std::chrono::steady_clock::now();
         tet_optimization_state s;
-        // Four slots per tracked face (counted from both of its tets).
+        // Four slots per tracked face (counted from both of its tets), at most 2^20 slots
+        // (92 MB) for very large inputs.
         std::size_t tracked_faces = 0;
         for (index_t g = 0; g < m.tet_slots(); ++g)
             if (m.tet_alive(g)) tracked_faces += std::popcount(m.attribute(tracked)[g]);
-        containment_memo verdicts(2 * tracked_faces);
+        containment_memo verdicts(std::min(2 * tracked_faces, std::size_t(1) << 20));
         s.verdicts = &verdicts;
         s.swap_above = o.swap_above;
         s.tracked = tracked, s.exact = &exact, s.input = &input;
