@@ -760,8 +760,12 @@ private:
         const auto& tri = in_.triangles[t];
         const auto& V = in_.vertices;
         auto planes = edge_planes({V[tri[0]], V[tri[1]], V[tri[2]]});
-        for (std::uint64_t k = 0; k < 3; ++k) add_plane(4ull * t + k + 1, std::move(planes[k]));
-        return plane_ids_.at(key);
+        std::uint32_t id = 0;
+        for (std::uint64_t k = 0; k < 3; ++k) {
+            const std::uint32_t added = add_plane(4ull * t + k + 1, std::move(planes[k]));
+            if (k == std::uint64_t(e)) id = added;
+        }
+        return id;
     }
 
     /// Sign of plane k at x, exactly.

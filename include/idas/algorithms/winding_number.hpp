@@ -82,6 +82,10 @@ public:
 private:
     /// A symmetric 3x3 matrix: xx, yy, zz, xy, xz, yz.
     using symmetric = std::array<double, 6>;
+    /// e e^T.
+    static symmetric outer(const vec3& e) {
+        return {e.x * e.x, e.y * e.y, e.z * e.z, e.x * e.y, e.x * e.z, e.y * e.z};
+    }
     static vec3 times(const symmetric& s, const vec3& d) {
         return {s[0] * d.x + s[3] * d.y + s[4] * d.z, s[3] * d.x + s[1] * d.y + s[5] * d.z,
                 s[4] * d.x + s[5] * d.y + s[2] * d.z};
@@ -158,11 +162,9 @@ private:
                 const vec3 x = g - n.center;
                 // Q = x x^T + (1/12) sum over corners of (corner - g)(corner - g)^T: the
                 // triangle's second moment of area about the center, divided by its area.
-                symmetric Q{x.x * x.x, x.y * x.y, x.z * x.z, x.x * x.y, x.x * x.z, x.y * x.z};
+                symmetric Q = outer(x);
                 for (index_t v : t) {
-                    const vec3 e = v_[v] - g;
-                    const symmetric E{e.x * e.x, e.y * e.y, e.z * e.z,
-                                      e.x * e.y, e.x * e.z, e.y * e.z};
+                    const symmetric E = outer(v_[v] - g);
                     for (int k = 0; k < 6; ++k) Q[std::size_t(k)] += E[std::size_t(k)] / 12.0;
                 }
                 for (int row = 0; row < 3; ++row) {

@@ -26,6 +26,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <map>
 #include <span>
 #include <string>
@@ -407,6 +408,18 @@ struct inside_boundary {
     std::size_t non_manifold_edges = 0;
 };
 
+/// Calls run(element, count) once for each run of equal elements (by `same`) of the
+/// sorted vector v.
+template <class Vector, class Run, class Same = std::equal_to<>>
+void for_each_run(const Vector& v, Run&& run, Same same = {}) {
+    for (std::size_t i = 0; i < v.size();) {
+        std::size_t j = i + 1;
+        while (j < v.size() && same(v[j], v[i])) ++j;
+        run(v[i], j - i);
+        i = j;
+    }
+}
+
 inline inside_boundary boundary_of(std::size_t n_vertices, const std::vector<tet_indices>& T,
                                    const std::vector<std::uint8_t>& in) {
     struct rec {
@@ -425,27 +438,23 @@ inline inside_boundary boundary_of(std::size_t n_vertices, const std::vector<tet
     }
     std::sort(faces.begin(), faces.end(), [](const rec& a, const rec& b) { return a.key < b.key; });
     inside_boundary out;
-    for (std::size_t i = 0; i < faces.size();) {
-        std::size_t j = i + 1;
-        while (j < faces.size() && faces[j].key == faces[i].key) ++j;
-        if (j - i == 1) out.faces.push_back(faces[i].face);
-        i = j;
-    }
+    for_each_run(
+        faces,
+        [&](const rec& r, std::size_t count) {
+            if (count == 1) out.faces.push_back(r.face);
+        },
+        [](const rec& a, const rec& b) { return a.key == b.key; });
     // Edges: a closed 2-manifold has every edge in exactly two boundary faces.
     std::vector<std::pair<index_t, index_t>> edges;
     for (const auto& f : out.faces)
         for (int k = 0; k < 3; ++k) edges.push_back(std::minmax(f[k], f[(k + 1) % 3]));
     std::sort(edges.begin(), edges.end());
-    for (std::size_t i = 0; i < edges.size();) {
-        std::size_t j = i + 1;
-        while (j < edges.size() && edges[j] == edges[i]) ++j;
-        if (j - i != 2) {
-            ++out.non_manifold_edges;
-            out.bad_edge_vertices.push_back(edges[i].first);
-            out.bad_edge_vertices.push_back(edges[i].second);
-        }
-        i = j;
-    }
+    for_each_run(edges, [&](const std::pair<index_t, index_t>& e, std::size_t count) {
+        if (count == 2) return;
+        ++out.non_manifold_edges;
+        out.bad_edge_vertices.push_back(e.first);
+        out.bad_edge_vertices.push_back(e.second);
+    });
     // Vertices: the faces around a vertex form one cycle (their opposite edges chain up).
     std::vector<index_t> first(n_vertices + 1, 0), around;
     for (const auto& f : out.faces)
@@ -546,25 +555,18 @@ inline bool group_is_disk(index_t v, std::span<const index_t> star,
     std::sort(edges.begin(), edges.end());
     long distinct_edges = 0;
     boost::container::small_vector<index_t, 48> boundary_ends;
-    for (std::size_t i = 0; i < edges.size();) {
-        std::size_t j = i + 1;
-        while (j < edges.size() && edges[j] == edges[i]) ++j;
+    for_each_run(edges, [&](const std::pair<index_t, index_t>& e, std::size_t count) {
         ++distinct_edges;
-        if (j - i == 1) {
-            boundary_ends.push_back(edges[i].first);
-            boundary_ends.push_back(edges[i].second);
+        if (count == 1) {
+            boundary_ends.push_back(e.first);
+            boundary_ends.push_back(e.second);
         }
-        i = j;
-    }
+    });
     if (long(corners.size()) - distinct_edges + faces != 1) return false;
     std::sort(boundary_ends.begin(), boundary_ends.end());
-    for (std::size_t i = 0; i < boundary_ends.size();) {
-        std::size_t j = i + 1;
-        while (j < boundary_ends.size() && boundary_ends[j] == boundary_ends[i]) ++j;
-        if (j - i != 2) return false;
-        i = j;
-    }
-    return true;
+    bool pinched = false;
+    for_each_run(boundary_ends, [&](index_t, std::size_t count) { pinched |= count != 2; });
+    return !pinched;
 }
 
 /// Makes the inside's boundary a closed 2-manifold, locally, vertex by vertex, where it is
@@ -627,8 +629,7 @@ inline std::size_t close_boundary(std::vector<vec3>& V, std::vector<tet_indices>
                 if (g >= 0) ++size[g];
             const int largest = int(std::max_element(size.begin(), size.end()) - size.begin());
             for (std::size_t k = 0; k < st.size(); ++k)
-                if (group[k] >= 0 && group[k] != largest && !in[st[k]])
-                    in[st[k]] = 1, ++added, changed = true;
+                if (group[k] >= 0 && group[k] != largest) in[st[k]] = 1, ++added, changed = true;
         }
         if (changed) continue;
         for (index_t v : bad)
