@@ -484,6 +484,29 @@ TEST_CASE("winding number: the hierarchy is within 1e-2 of the exact sum around 
     CHECK(worst < 1e-2);
 }
 
+TEST_CASE("winding number: labels from the coarse pass are those of the full accuracy") {
+    // bunny is open: around its holes the winding number passes through 1/2, so the
+    // coarse pass must hand those points back to the full accuracy.
+    const io::surface s = io::read_surface(data("bunny.obj"));
+    const winding_number w(s.vertices, s.faces);
+    const auto [lo, hi] = box_of(s.vertices);
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> u(-0.1, 1.1);
+    int near_half = 0, refined = 0;
+    for (int i = 0; i < 4000; ++i) {
+        const vec3 p{lo.x + (hi.x - lo.x) * u(rng), lo.y + (hi.y - lo.y) * u(rng),
+                     lo.z + (hi.z - lo.z) * u(rng)};
+        const double full = w(p), label = w.for_label(p);
+        REQUIRE((label > 0.5) == (full > 0.5));
+        near_half += std::abs(full - 0.5) < 0.2;
+        refined += label == full;
+        // Away from 1/2 the coarse value stands, close to the full one.
+        CHECK(std::abs(label - full) < 0.05);
+    }
+    CHECK(near_half > 0); // the test reaches the points that matter
+    CHECK(refined > 0);
+}
+
 TEST_CASE("winding number: 1 inside a closed surface, 0 outside, near and far") {
     const io::surface s = io::read_surface(data("sphere.obj"));
     const winding_number w(s.vertices, s.faces);

@@ -35,6 +35,7 @@
 #include <array>
 #include <atomic>
 #include <bit>
+#include <cassert>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -279,71 +280,88 @@ inline bool lex_less(const rational_point& a, const rational_point& b) {
 
 // ---- candidate pairs (triangle, tet) --------------------------------------------------------
 
-/// False only if triangle (a, b, c) certainly misses the closed tet (p0..p3): a
-/// conservative test, since cutting by an extra plane costs tets, not correctness.
-inline bool may_meet(const vec3& a, const vec3& b, const vec3& c, const std::array<vec3, 4>& p) {
+/// False only if the boxes of triangle (a, b, c) and tet (p0..p3) are disjoint.
+inline bool boxes_overlap(const vec3& a, const vec3& b, const vec3& c,
+                          const std::array<vec3, 4>& p) {
     for (int k = 0; k < 3; ++k) {
         const double tlo = std::min({a[k], b[k], c[k]}), thi = std::max({a[k], b[k], c[k]});
         const double plo = std::min({p[0][k], p[1][k], p[2][k], p[3][k]});
         const double phi = std::max({p[0][k], p[1][k], p[2][k], p[3][k]});
         if (thi < plo || tlo > phi) return false;
     }
-    int pos = 0, neg = 0;
-    for (const vec3& q : p) {
-        const int s = o3d(a, b, c, q);
-        pos += s > 0, neg += s < 0;
+    return true;
+}
+
+/// How triangle (a, b, c) meets a positively oriented tet (p0..p3), given `s`, the sides of
+/// the tet's corners of the triangle's plane (orient3d(a, b, c, p_i)):
+/// - `misses`: certainly not (a conservative test, since cutting by an extra plane costs
+///   tets, not correctness);
+/// - `touches`: perhaps, but not in a piece of positive area (the walk goes on through it);
+/// - `with_area`: the triangle's interior meets the tet's interior, or it overlaps one of
+///   the tet's faces. Only such tets need its plane; a triangle that touches a tet at a
+///   corner or along an edge is covered by other tets. Exact: a separating-line test in
+///   the triangle's plane (the tet's section by that plane against the triangle), with
+///   the edge lines of the triangle evaluated in floating point first and exactly (GMP)
+///   only when that is not conclusive.
+enum class meeting : std::uint8_t { misses, touches, with_area };
+
+/// A triangle's normal and the normals of the planes through its edges perpendicular to
+/// it, in doubles with their error bounds: the same for every tet a walk visits.
+struct triangle_normals {
+    std::pair<vec3, double> normal;
+    std::array<std::pair<vec3, double>, 3> edge; ///< edge e: from corner e to corner e + 1
+    triangle_normals(const vec3& a, const vec3& b, const vec3& c)
+        : normal(approximate_normal(a, b, c)) {
+        const std::array<const vec3*, 3> corner{&a, &b, &c};
+        for (std::size_t e = 0; e < 3; ++e)
+            edge[e] = approximate_edge_normal(*corner[e], *corner[(e + 1) % 3], normal.first,
+                                              normal.second);
     }
-    if (pos == 4 || neg == 4) return false;
+};
+
+inline meeting how_triangle_meets(const vec3& a, const vec3& b, const vec3& c,
+                                  const triangle_normals& normals, const std::array<vec3, 4>& p,
+                                  const std::array<int, 4>& s) {
+    int pos = 0, neg = 0, zero = 0;
+    for (int i = 0; i < 4; ++i) pos += s[i] > 0, neg += s[i] < 0, zero += s[i] == 0;
+    if (pos == 4 || neg == 4) return meeting::misses;
+    // Each face's plane against the triangle's corners. Every face of a positively oriented
+    // tet, as face_vertices lists it, has the opposite corner on its negative side (the
+    // four permutations (face, opposite corner) are odd).
+    constexpr int inside = -1;
+    std::array<std::array<int, 3>, 4> face_side{};
     for (std::uint8_t f = 0; f < 4; ++f) {
         const auto& fv = tet_local::face_vertices[f];
         const vec3 &x = p[fv[0]], &y = p[fv[1]], &z = p[fv[2]];
-        const int inside = o3d(x, y, z, p[f]);
-        if (o3d(x, y, z, a) == -inside && o3d(x, y, z, b) == -inside && o3d(x, y, z, c) == -inside)
-            return false;
+        assert(o3d(x, y, z, p[f]) == inside);
+        face_side[f] = {o3d(x, y, z, a), o3d(x, y, z, b), o3d(x, y, z, c)};
+        if (face_side[f][0] == -inside && face_side[f][1] == -inside && face_side[f][2] == -inside)
+            return meeting::misses;
     }
     // Separation by the plane through an edge, perpendicular to the triangle: floating
     // point beyond its proven error bound, so it only ever drops tets that are outside.
-    const auto [n, n_error] = approximate_normal(a, b, c);
-    const std::array<std::array<const vec3*, 2>, 3> edges{{{&a, &b}, {&b, &c}, {&c, &a}}};
-    for (const auto& e : edges) {
-        const auto [m, m_error] = approximate_edge_normal(*e[0], *e[1], n, n_error);
+    const auto& [n, n_error] = normals.normal;
+    const std::array<vec3, 3> tri{a, b, c};
+    for (std::size_t e = 0; e < 3; ++e) {
+        const vec3& e0 = tri[e];
+        const auto& [m, m_error] = normals.edge[e];
         bool outside = true;
         for (const vec3& q : p) {
-            const vec3 d = q - *e[0];
+            const vec3 d = q - e0;
             if (!(dot(m, d) > filter_bound(m, m_error, d, 0))) {
                 outside = false;
                 break;
             }
         }
-        if (outside) return false;
+        if (outside) return meeting::misses;
     }
-    return true;
-}
 
-/// True iff triangle (a, b, c) and the tet (p0..p3) share a piece of positive area:
-/// the triangle's interior meets the tet's interior, or it overlaps one of the tet's
-/// faces. Only such tets need its plane; a triangle that touches a tet at a corner or
-/// along an edge is covered by other tets. Exact: a separating-line test in the
-/// triangle's plane (the tet's section by that plane against the triangle), with the
-/// edge lines of the triangle evaluated in floating point first and exactly (GMP) only
-/// when that is not conclusive.
-inline bool meets_with_area(const vec3& a, const vec3& b, const vec3& c,
-                            const std::array<vec3, 4>& p) {
-    std::array<int, 4> s{};
-    int pos = 0, neg = 0, zero = 0;
-    for (int i = 0; i < 4; ++i) {
-        s[i] = o3d(a, b, c, p[i]);
-        pos += s[i] > 0, neg += s[i] < 0, zero += s[i] == 0;
-    }
-    if ((pos == 0 || neg == 0) && zero != 3) return false;
+    if ((pos == 0 || neg == 0) && zero != 3) return meeting::touches;
     // The lines of the section's sides are the tet's face planes.
     for (std::uint8_t f = 0; f < 4; ++f) {
-        const auto& fv = tet_local::face_vertices[f];
-        const vec3 &x = p[fv[0]], &y = p[fv[1]], &z = p[fv[2]];
-        const int inside = o3d(x, y, z, p[f]);
-        const int sa = o3d(x, y, z, a), sb = o3d(x, y, z, b), sc = o3d(x, y, z, c);
+        const auto [sa, sb, sc] = face_side[f];
         const bool on_face = sa == 0 && sb == 0 && sc == 0; // overlaps it, or not at all
-        if (!on_face && sa != inside && sb != inside && sc != inside) return false;
+        if (!on_face && sa != inside && sb != inside && sc != inside) return meeting::touches;
     }
     // The section's corners: tet corners on the plane and crossings of its edges.
     struct corner {
@@ -356,15 +374,13 @@ inline bool meets_with_area(const vec3& a, const vec3& b, const vec3& c,
     for (int i = 0; i < 4; ++i)
         for (int j = i + 1; j < 4; ++j)
             if (s[i] * s[j] < 0) sec[ns++] = {i, j};
-    const std::array<vec3, 3> tri{a, b, c};
-    const auto [n, n_error] = approximate_normal(a, b, c);
     // Exact planes, built only when the filters cannot decide.
     std::optional<exact_plane> plane;
     std::optional<std::array<exact_plane, 3>> edge_plane;
     mpz_class Nfu, Dfu, Nfv, Dfv, Ngu, Dgu, Ngv, Dgv;
     for (std::size_t e = 0; e < 3; ++e) {
         const vec3 &e0 = tri[e], &e1 = tri[(e + 1) % 3];
-        const auto [m, m_error] = approximate_edge_normal(e0, e1, n, n_error);
+        const auto& [m, m_error] = normals.edge[e];
         auto edge_value = [&](const vec3& x, mpz_class& N, mpz_class& D) {
             if (!edge_plane) edge_plane = edge_planes(tri);
             plane_value((*edge_plane)[e], to_rational(x), N, D);
@@ -417,9 +433,9 @@ inline bool meets_with_area(const vec3& a, const vec3& b, const vec3& c,
         };
         bool separated = true;
         for (int k = 0; k < ns && separated; ++k) separated = side(sec[k]) >= 0;
-        if (separated) return false;
+        if (separated) return meeting::touches;
     }
-    return true;
+    return meeting::with_area;
 }
 
 /// Face adjacency of a tet list: for (tet t, local face f), the tet across it and its
@@ -488,6 +504,10 @@ inline cutting_planes find_cutting_planes(const insertion_input& in, const tet_a
     const std::size_t m = in.tets.size();
     struct local {
         std::vector<std::uint32_t> stamp;
+        // A vertex's side of the current triangle's plane, valid where side_stamp is the
+        // triangle's mark: the tets of a walk share their corners about five times over.
+        std::vector<std::uint32_t> side_stamp;
+        std::vector<std::int8_t> side;
         std::vector<std::pair<index_t, index_t>> pairs; // (tet, triangle)
         std::vector<index_t> queue;
     };
@@ -497,10 +517,15 @@ inline cutting_planes find_cutting_planes(const insertion_input& in, const tet_a
         [&](const tbb::blocked_range<std::size_t>& r) {
             local& L = scratch.local();
             if (L.stamp.size() != m) L.stamp.assign(m, 0);
+            if (L.side_stamp.size() != V.size()) {
+                L.side_stamp.assign(V.size(), 0);
+                L.side.assign(V.size(), 0);
+            }
             for (std::size_t ti = r.begin(); ti != r.end(); ++ti) {
                 const auto& tri = in.triangles[ti];
                 const vec3 &a = V[tri[0]], &b = V[tri[1]], &c = V[tri[2]];
                 const std::uint32_t mark = std::uint32_t(ti + 1);
+                const triangle_normals normals(a, b, c);
                 L.queue.clear();
                 auto visit = [&](index_t t) {
                     if (L.stamp[t] == mark) return;
@@ -509,9 +534,20 @@ inline cutting_planes find_cutting_planes(const insertion_input& in, const tet_a
                     const std::array<vec3, 4> p{V[tv[0]], V[tv[1]], V[tv[2]], V[tv[3]]};
                     // Walk the tets that meet the closed triangle (they are connected
                     // through faces); keep those that share an area with it.
-                    if (!may_meet(a, b, c, p)) return;
+                    if (!boxes_overlap(a, b, c, p)) return;
+                    std::array<int, 4> s{};
+                    for (int i = 0; i < 4; ++i) {
+                        const index_t v = tv[std::size_t(i)];
+                        if (L.side_stamp[v] != mark) {
+                            L.side_stamp[v] = mark;
+                            L.side[v] = std::int8_t(o3d(a, b, c, V[v]));
+                        }
+                        s[std::size_t(i)] = L.side[v];
+                    }
+                    const meeting how = how_triangle_meets(a, b, c, normals, p, s);
+                    if (how == meeting::misses) return;
                     L.queue.push_back(t);
-                    if (meets_with_area(a, b, c, p)) L.pairs.emplace_back(t, index_t(ti));
+                    if (how == meeting::with_area) L.pairs.emplace_back(t, index_t(ti));
                 };
                 for (index_t s = adj.star_first[tri[0]]; s < adj.star_first[tri[0] + 1]; ++s)
                     visit(adj.star[s]);
@@ -613,6 +649,8 @@ struct cell {
 struct exported_point {
     std::int8_t where;
     rational_point q;
+    vec3 approx; ///< nearest doubles, which the neighbours compare first
+    bool is_double;
 };
 
 /// What a tet becomes: tets and tracked faces over its local points.
@@ -675,7 +713,8 @@ public:
         for (std::size_t i = 4; i < pts_.size(); ++i) {
             const int bits = std::popcount(unsigned(pts_[i].faces));
             if (bits == 1)
-                out.push_back({std::int8_t(std::countr_zero(unsigned(pts_[i].faces))), pts_[i].q});
+                out.push_back({std::int8_t(std::countr_zero(unsigned(pts_[i].faces))), pts_[i].q,
+                               pts_[i].approx, pts_[i].is_double});
             if (bits == 2) {
                 // On the edge shared by the two faces: the corners not opposite them.
                 std::array<std::uint8_t, 2> e{};
@@ -683,17 +722,19 @@ public:
                 for (std::uint8_t v = 0; v < 4; ++v)
                     if (pts_[i].faces & (1u << v)) e[k++] = v;
                 const auto ends = tet_local::edge_complement(tet_local::edge_of[e[0]][e[1]]);
-                out.push_back({std::int8_t(-1 - tet_local::edge_of[ends[0]][ends[1]]), pts_[i].q});
+                out.push_back({std::int8_t(-1 - tet_local::edge_of[ends[0]][ends[1]]), pts_[i].q,
+                               pts_[i].approx, pts_[i].is_double});
             }
         }
         return out;
     }
 
     /// Adds a point of a neighbour on the tet's face or edge, unless it is known.
-    void import(const rational_point& q, std::uint8_t faces) {
+    void import(const exported_point& x, std::uint8_t faces) {
+        // Equal points have equal nearest doubles: GMP only compares those.
         for (const point& p : pts_)
-            if (p.faces == faces && p.q == q) return;
-        pts_.push_back(make_point(q, faces));
+            if (p.faces == faces && p.approx == x.approx && p.q == x.q) return;
+        pts_.push_back({x.q, x.approx, x.is_double, faces});
     }
     static std::uint8_t edge_faces(std::uint8_t local_edge) {
         const auto& e = tet_local::edge_vertices[local_edge];
@@ -1324,16 +1365,16 @@ inline inserted_mesh insert_triangles(const insertion_input& in) {
         const index_t a = in.tets[t][e[0]], b = in.tets[t][e[1]];
         return (std::uint64_t(std::min(a, b)) << 32) | std::max(a, b);
     };
-    std::vector<std::pair<std::uint64_t, const rational_point*>> on_edges;
+    std::vector<std::pair<std::uint64_t, const exported_point*>> on_edges;
     for (std::size_t i = 0; i < first_list.size(); ++i)
         for (const auto& x : exports[i])
             if (x.where < 0)
-                on_edges.emplace_back(edge_key(first_list[i], std::uint8_t(-1 - x.where)), &x.q);
+                on_edges.emplace_back(edge_key(first_list[i], std::uint8_t(-1 - x.where)), &x);
     std::stable_sort(on_edges.begin(), on_edges.end(),
                      [](const auto& a, const auto& b) { return a.first < b.first; });
     auto edge_range = [&](std::uint64_t key) {
         return std::equal_range(on_edges.begin(), on_edges.end(),
-                                std::pair<std::uint64_t, const rational_point*>{key, nullptr},
+                                std::pair<std::uint64_t, const exported_point*>{key, nullptr},
                                 [](const auto& a, const auto& b) { return a.first < b.first; });
     };
 
@@ -1364,7 +1405,7 @@ inline inserted_mesh insert_triangles(const insertion_input& in) {
             if (nb == invalid_index || slot[nb] == invalid_index) continue;
             for (const auto& x : exports[slot[nb]])
                 if (x.where == std::int8_t(adj.across_face[4 * t + f]))
-                    c->import(x.q, std::uint8_t(1u << f));
+                    c->import(x, std::uint8_t(1u << f));
         }
         for (std::uint8_t le = 0; le < 6; ++le) {
             auto [lo, hi] = edge_range(edge_key(t, le));

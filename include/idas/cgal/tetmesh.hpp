@@ -79,7 +79,8 @@ struct report {
 struct result {
     insertion::inserted_mesh mesh;
     std::vector<std::uint8_t> inside; ///< per tet: winding number above 1/2
-    std::vector<double> winding;      ///< per tet, at its centroid
+    /// Per tet, at its centroid, as far as the label needs it (winding_number::for_label).
+    std::vector<double> winding;
     report stats;
 };
 
@@ -321,7 +322,7 @@ inline void label(const winding_number& w, const std::vector<vec3>& V,
     tbb::parallel_for(std::size_t{0}, T.size(), [&](std::size_t t) {
         const auto& tv = T[t];
         const vec3 c = (V[tv[0]] + V[tv[1]] + V[tv[2]] + V[tv[3]]) * 0.25;
-        winding[t] = w(c);
+        winding[t] = w.for_label(c);
         inside[t] = winding[t] > 0.5;
     });
 }
@@ -336,7 +337,7 @@ inline bool any_inside(const winding_number& w, const std::vector<vec3>& V,
         for (std::size_t t = range.begin(); t != range.end(); ++t) {
             if (found.load(std::memory_order_relaxed)) return;
             const auto& tv = T[t];
-            if (w((V[tv[0]] + V[tv[1]] + V[tv[2]] + V[tv[3]]) * 0.25) > 0.5)
+            if (w.for_label((V[tv[0]] + V[tv[1]] + V[tv[2]] + V[tv[3]]) * 0.25) > 0.5)
                 found.store(true, std::memory_order_relaxed);
         }
     });
