@@ -4,9 +4,10 @@
 //   split     edges longer than 4/3 of the local target length, at their midpoints,
 //             longest first
 //   collapse  edges shorter than 4/5 of it, shortest first, into one end, unless the
-//             largest AMIPS energy of the changed tets would rise (a surface vertex may go
-//             into any vertex: the envelope decides, as in fTetWild); a vertex still
-//             rational goes into a neighbour whatever the length
+//             largest AMIPS energy of the changed tets would rise above both its old value
+//             and 0.6 of the stop energy (a surface vertex may go into any vertex: the
+//             envelope decides, as in fTetWild); a vertex still rational goes into a
+//             neighbour whatever the length
 //   swap      edge removal (3-2, 4-4 and n-(2n-4) swaps, the best triangulation of the
 //             ring) and 2-3 face swaps around the tets whose energy is above a bar, when
 //             they lower the largest energy of the tets they replace, worst tets first
@@ -84,8 +85,12 @@ struct tet_optimization_options {
     double stop_energy = 10;      ///< stop when the largest AMIPS is at most this
     unsigned max_iterations = 80; ///< rounds of split, collapse, swap, smooth
     double swap_above = 8;        ///< swaps are tried around tets with AMIPS above this
-    double min_length = 0;        ///< a sizing field's smaller values are raised to this
-    double min_scale = 1.0 / 32;  ///< adaptive sizing never shrinks the target below this fraction
+    /// A collapse may raise the largest AMIPS of its star up to this fraction of
+    /// stop_energy (0: never raise it, fTetWild's rule), until the energy first stalls.
+    /// With fTetWild's rule idas kept 1.0-1.4x its tets; bench/RESULTS.md, session 23.
+    double collapse_up_to = 0.6;
+    double min_length = 0;       ///< a sizing field's smaller values are raised to this
+    double min_scale = 1.0 / 32; ///< adaptive sizing never shrinks the target below this fraction
 };
 
 enum class tet_optimization_stop { energy_reached, iteration_limit, already_good };
@@ -176,6 +181,7 @@ private:
 /// What the phase specs share. The attribute columns belong to the run.
 struct tet_optimization_state {
     double swap_above = 4;
+    double collapse_up_to = 0; ///< absolute AMIPS (tet_optimization_options::collapse_up_to)
     tet_attribute<std::uint8_t> tracked; ///< bit lf: local face lf is tracked
     vertex_attribute<std::uint8_t> kind; ///< tet_vertex bits
     vertex_attribute<double> length;     ///< the sizing field at the vertex (absolute)
@@ -581,9 +587,10 @@ struct tet_collapse_spec : tet_optimization_invariants<Envelope> {
     /// The cheap refusals first, before the operation's link condition: b must be allowed
     /// to vanish into a (a feature vertex only where its curve stays, a on every box
     /// plane b is on, two surface vertices only along a tracked edge), and the largest
-    /// energy of the tets of b's star may not rise. A surface vertex may go into a vertex
-    /// off the surface, as in fTetWild: the envelope invariant decides whether its faces
-    /// may follow.
+    /// energy of the tets of b's star may not rise above the larger of its old value and
+    /// collapse_up_to (fTetWild's rule alone, never rise, left 1.4x its tets on sphere).
+    /// A surface vertex may go into a vertex off the surface, as in fTetWild: the envelope
+    /// invariant decides whether its faces may follow.
     template <class Mesh>
     bool should_process(op::collapse_edge, const Mesh& m, const queue_entry<tet_tuple>& e) const {
         const tet_tuple& t = e.tuple;
@@ -622,7 +629,7 @@ struct tet_collapse_spec : tet_optimization_invariants<Envelope> {
             if (tet_local::contains(tv, a)) continue;
             const auto nt = idas::detail::replaced(tv, b, a);
             new_max = std::max(new_max, tet_amips(p[nt[0]], p[nt[1]], p[nt[2]], p[nt[3]]));
-            if (!(new_max <= old_max)) return false;
+            if (!(new_max <= std::max(old_max, s.collapse_up_to))) return false;
         }
         return true;
     }
@@ -960,6 +967,7 @@ struct tet_optimization {
         containment_memo verdicts(std::min(2 * tracked_faces, std::size_t(1) << 20));
         s.verdicts = &verdicts;
         s.swap_above = o.swap_above;
+        s.collapse_up_to = o.collapse_up_to * o.stop_energy;
         s.tracked = tracked, s.exact = &exact, s.input = &input;
         const temporary_attribute kind(
             m, m.template add_vertex_attribute<std::uint8_t>("tet_kind", 0));
@@ -1013,6 +1021,9 @@ struct tet_optimization {
                            before.mean - now.mean < 0.1 * before.mean) {
                     rep.sizing_refinements += refine_sizing(m, s, o, now.max);
                     just_refined = true;
+                    // Stalled: from here on a collapse may not raise its star's largest
+                    // energy at all (fTetWild's rule), which the stalled region needs.
+                    s.collapse_up_to = 0;
                 }
             }
         }
