@@ -466,21 +466,31 @@ TEST_CASE("tetmesh: bad inputs are refused with input_error") {
     CHECK(flat.stats.inside_tets == 0);
 }
 
+namespace {
+/// n random points (seeded) in the box of `s` grown by a tenth of its size on each side.
+std::vector<vec3> points_around(const io::surface& s, unsigned seed, int n) {
+    const auto [lo, hi] = box_of(s.vertices);
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> u(-0.1, 1.1);
+    std::vector<vec3> out;
+    for (int i = 0; i < n; ++i) {
+        const double x = u(rng), y = u(rng), z = u(rng); // in this order, as before
+        out.push_back(
+            {lo.x + (hi.x - lo.x) * x, lo.y + (hi.y - lo.y) * y, lo.z + (hi.z - lo.z) * z});
+    }
+    return out;
+}
+} // namespace
+
 TEST_CASE("winding number: the hierarchy is within 1e-2 of the exact sum around blub") {
     // Random points in and around blub's box against the sum of every solid angle. With
     // the far field cut to its first term at the default beta of 2, the largest error
     // here is several times the bound.
     const io::surface s = io::read_surface(data("blub.obj"));
     const winding_number w(s.vertices, s.faces);
-    const auto [lo, hi] = box_of(s.vertices);
-    std::mt19937 rng(3);
-    std::uniform_real_distribution<double> u(-0.1, 1.1);
     double worst = 0;
-    for (int i = 0; i < 150; ++i) {
-        const vec3 p{lo.x + (hi.x - lo.x) * u(rng), lo.y + (hi.y - lo.y) * u(rng),
-                     lo.z + (hi.z - lo.z) * u(rng)};
+    for (const vec3& p : points_around(s, 3, 150))
         worst = std::max(worst, std::abs(w(p) - exact_winding(s, p)));
-    }
     CHECK(worst < 1e-2);
 }
 
@@ -489,13 +499,8 @@ TEST_CASE("winding number: labels from the coarse pass are those of the full acc
     // coarse pass must hand those points back to the full accuracy.
     const io::surface s = io::read_surface(data("bunny.obj"));
     const winding_number w(s.vertices, s.faces);
-    const auto [lo, hi] = box_of(s.vertices);
-    std::mt19937 rng(5);
-    std::uniform_real_distribution<double> u(-0.1, 1.1);
     int near_half = 0, refined = 0;
-    for (int i = 0; i < 4000; ++i) {
-        const vec3 p{lo.x + (hi.x - lo.x) * u(rng), lo.y + (hi.y - lo.y) * u(rng),
-                     lo.z + (hi.z - lo.z) * u(rng)};
+    for (const vec3& p : points_around(s, 5, 4000)) {
         const double full = w(p), label = w.for_label(p);
         REQUIRE((label > 0.5) == (full > 0.5));
         near_half += std::abs(full - 0.5) < 0.2;
