@@ -390,30 +390,20 @@ struct exact_orientation {
 
 /// Invariant: every tracked face of the new tets lies inside the envelope.
 ///
-/// Only faces whose geometry is new are tested: a tracked face that an operation keeps
-/// (same corners, unmoved) was tested when it was made. A split, a collapse and a smoothing
-/// move or create one vertex, their anchor, so only the faces through it are new; a swap
-/// never changes a tracked face (the specs refuse swaps that would remove one, and the
-/// faces a swap creates inside its ring are never tracked). Any other operation has all
-/// its tracked faces tested.
+/// Only faces whose geometry is new are tested (the operation kind's `new_facets`): a
+/// tracked face that an operation keeps (same corners, unmoved) was tested when it was
+/// made. A split, a collapse and a smoothing make new faces only through their anchor; a
+/// swap makes them only inside its ring, where no face is tracked (the specs refuse swaps
+/// that would remove a tracked face). Any other operation has all its tracked faces tested.
 template <triangle_envelope Envelope>
 struct tracked_in_envelope {
     const Envelope* envelope = nullptr;
     const tet_optimization_state* s = nullptr;
     struct state {};
 
-    template <class Op>
-    static constexpr bool moves_anchor_only =
-        std::is_same_v<Op, op::split_tet_edge> || std::is_same_v<Op, op::collapse_edge> ||
-        std::is_same_v<Op, op::smooth_vertex>;
-    template <class Op>
-    static constexpr bool keeps_tracked_faces =
-        std::is_same_v<Op, op::face_swap_23> || std::is_same_v<Op, op::edge_swap_32> ||
-        std::is_same_v<Op, op::edge_swap_44> || std::is_same_v<Op, op::edge_removal>;
-
     template <class Op, class Mesh, class Result>
     bool after(Op, const Mesh& m, const Result& r, state&) const {
-        if constexpr (keeps_tracked_faces<Op>) return true;
+        if constexpr (where_new_facets<Op> == new_facets::inside_region) return true;
         const auto p = m.positions();
         const auto tracked = m.attribute(s->tracked);
         for (const auto& c : r.cells) {
@@ -422,7 +412,8 @@ struct tracked_in_envelope {
             const auto& tv = m.tet_vertices(c.tid);
             // The local face opposite the anchor is the one face of the tet without it.
             std::uint8_t unchanged = 4;
-            if constexpr (moves_anchor_only<Op>) unchanged = tet_local::index_of(tv, r.anchor.vid);
+            if constexpr (where_new_facets<Op> == new_facets::through_anchor)
+                unchanged = tet_local::index_of(tv, r.anchor.vid);
             for (std::uint8_t lf = 0; lf < 4; ++lf) {
                 if (!(bits >> lf & 1u) || lf == unchanged) continue;
                 // Each tracked face is in two new tets; test it from the one that holds it

@@ -648,9 +648,7 @@ struct cell {
 /// (face < 0: edge -1 - face).
 struct exported_point {
     std::int8_t where;
-    rational_point q;
-    vec3 approx; ///< nearest doubles, which the neighbours compare first
-    bool is_double;
+    point p; ///< its `faces` are the exporting tet's
 };
 
 /// What a tet becomes: tets and tracked faces over its local points.
@@ -713,8 +711,7 @@ public:
         for (std::size_t i = 4; i < pts_.size(); ++i) {
             const int bits = std::popcount(unsigned(pts_[i].faces));
             if (bits == 1)
-                out.push_back({std::int8_t(std::countr_zero(unsigned(pts_[i].faces))), pts_[i].q,
-                               pts_[i].approx, pts_[i].is_double});
+                out.push_back({std::int8_t(std::countr_zero(unsigned(pts_[i].faces))), pts_[i]});
             if (bits == 2) {
                 // On the edge shared by the two faces: the corners not opposite them.
                 std::array<std::uint8_t, 2> e{};
@@ -722,15 +719,14 @@ public:
                 for (std::uint8_t v = 0; v < 4; ++v)
                     if (pts_[i].faces & (1u << v)) e[k++] = v;
                 const auto ends = tet_local::edge_complement(tet_local::edge_of[e[0]][e[1]]);
-                out.push_back({std::int8_t(-1 - tet_local::edge_of[ends[0]][ends[1]]), pts_[i].q,
-                               pts_[i].approx, pts_[i].is_double});
+                out.push_back({std::int8_t(-1 - tet_local::edge_of[ends[0]][ends[1]]), pts_[i]});
             }
         }
         return out;
     }
 
     /// Adds a point of a neighbour on the tet's face or edge, unless it is known.
-    void import(const exported_point& x, std::uint8_t faces) {
+    void import(const point& x, std::uint8_t faces) {
         // Equal points have equal nearest doubles: GMP only compares those.
         for (const point& p : pts_)
             if (p.faces == faces && p.approx == x.approx && p.q == x.q) return;
@@ -1405,11 +1401,11 @@ inline inserted_mesh insert_triangles(const insertion_input& in) {
             if (nb == invalid_index || slot[nb] == invalid_index) continue;
             for (const auto& x : exports[slot[nb]])
                 if (x.where == std::int8_t(adj.across_face[4 * t + f]))
-                    c->import(x, std::uint8_t(1u << f));
+                    c->import(x.p, std::uint8_t(1u << f));
         }
         for (std::uint8_t le = 0; le < 6; ++le) {
             auto [lo, hi] = edge_range(edge_key(t, le));
-            for (auto it = lo; it != hi; ++it) c->import(*it->second, tet_cutter::edge_faces(le));
+            for (auto it = lo; it != hi; ++it) c->import(it->second->p, tet_cutter::edge_faces(le));
         }
         outputs[i] = c->finish();
         if (own == nullptr) cutters[slot[t]].reset();

@@ -22,9 +22,17 @@ namespace idas {
 /// executor seeds the default queue and the lock footprint from it) and at most how many
 /// simplices one operation creates (`adds_vertices` / `adds_faces`, faces meaning top
 /// cells), so a parallel worker can tell in advance whether its slot pool can serve it.
-/// `changes_connectivity` (default true) lets a schedule tell moves from edits. A queue
+/// `changes_connectivity` (default true) lets a schedule tell moves from edits;
+/// `new_facets` (default `anywhere`) says where the facets with new geometry can be, so an
+/// invariant on facets tests only those. A queue
 /// entry stores an operation's position in its spec's `op_list`, so a user adds a kind by
 /// declaring a type like these and an `apply` overload for it (see tests/test_contract.cpp).
+/// Where the facets (edges of triangles, faces of tets) of an operation's output cells
+/// whose geometry is new can be: anywhere; only through the anchor vertex (the operation
+/// creates or moves that one vertex); or only inside the operation's region (it moves no
+/// vertex and keeps every facet on the region's border).
+enum class new_facets { anywhere, through_anchor, inside_region };
+
 namespace op {
 struct split_edge {
     static constexpr simplex_kind acts_on = simplex_kind::edge;
@@ -33,15 +41,18 @@ struct split_edge {
 struct collapse_edge {
     static constexpr simplex_kind acts_on = simplex_kind::edge;
     static constexpr index_t adds_vertices = 0, adds_faces = 0;
+    static constexpr idas::new_facets new_facets = idas::new_facets::through_anchor;
 };
 struct swap_edge {
     static constexpr simplex_kind acts_on = simplex_kind::edge;
     static constexpr index_t adds_vertices = 0, adds_faces = 0;
+    static constexpr idas::new_facets new_facets = idas::new_facets::inside_region;
 };
 struct smooth_vertex {
     static constexpr simplex_kind acts_on = simplex_kind::vertex;
     static constexpr index_t adds_vertices = 0, adds_faces = 0;
     static constexpr bool changes_connectivity = false;
+    static constexpr idas::new_facets new_facets = idas::new_facets::through_anchor;
 };
 } // namespace op
 
@@ -61,9 +72,20 @@ inline constexpr bool changes_connectivity = [] {
         return true;
 }();
 
+/// Where an operation kind's new facets can be (`new_facets`; anywhere if it does not say).
+template <operation_kind Op>
+inline constexpr new_facets where_new_facets = [] {
+    if constexpr (requires { Op::new_facets; })
+        return new_facets(Op::new_facets);
+    else
+        return new_facets::anywhere;
+}();
+
 static_assert(operation_kind<op::split_edge> && operation_kind<op::collapse_edge> &&
               operation_kind<op::swap_edge> && operation_kind<op::smooth_vertex>);
 static_assert(!changes_connectivity<op::smooth_vertex> && changes_connectivity<op::split_edge>);
+static_assert(where_new_facets<op::split_edge> == new_facets::anywhere &&
+              where_new_facets<op::collapse_edge> == new_facets::through_anchor);
 
 /// What an operation created: an anchor tuple (documented per operation) and the faces
 /// (or tets) that are new or changed, each with the old simplex it came from.

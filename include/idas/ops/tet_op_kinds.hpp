@@ -24,16 +24,19 @@ namespace op {
 struct face_swap_23 {
     static constexpr simplex_kind acts_on = simplex_kind::face;
     static constexpr index_t adds_vertices = 0, adds_faces = 1;
+    static constexpr idas::new_facets new_facets = idas::new_facets::inside_region;
 };
 /// 3-2 swap: the three tets around an interior edge become two tets on a new face.
 struct edge_swap_32 {
     static constexpr simplex_kind acts_on = simplex_kind::edge;
     static constexpr index_t adds_vertices = 0, adds_faces = 0;
+    static constexpr idas::new_facets new_facets = idas::new_facets::inside_region;
 };
 /// 4-4 swap: the four tets around an interior edge become four around the other diagonal.
 struct edge_swap_44 {
     static constexpr simplex_kind acts_on = simplex_kind::edge;
     static constexpr index_t adds_vertices = 0, adds_faces = 0;
+    static constexpr idas::new_facets new_facets = idas::new_facets::inside_region;
 };
 /// Edge split on a tet mesh (ops/tet_ops.hpp's split_edge under a kind of its own): the
 /// n tets around the edge become 2n, so a parallel worker needs room for n new tets. It is
@@ -41,11 +44,13 @@ struct edge_swap_44 {
 struct split_tet_edge {
     static constexpr simplex_kind acts_on = simplex_kind::edge;
     static constexpr index_t adds_vertices = 1, adds_faces = index_t(max_split_ring);
+    static constexpr idas::new_facets new_facets = idas::new_facets::through_anchor;
 };
 /// Edge removal: the n tets around an interior edge become 2n - 4 tets.
 struct edge_removal {
     static constexpr simplex_kind acts_on = simplex_kind::edge;
     static constexpr index_t adds_vertices = 0, adds_faces = index_t(max_edge_ring - 4);
+    static constexpr idas::new_facets new_facets = idas::new_facets::inside_region;
 };
 } // namespace op
 
