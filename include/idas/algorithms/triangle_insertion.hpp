@@ -497,6 +497,13 @@ inline tet_adjacency build_adjacency(std::size_t n_vertices, const std::vector<t
 /// represents the plane).
 struct cutting_planes {
     std::vector<index_t> group_first, tri_first, group_tris;
+    /// Per input triangle: its plane and the planes through its edges, exact, built once
+    /// for every tet that the triangle cuts.
+    struct triangle_planes {
+        exact_plane plane;
+        std::array<exact_plane, 3> edges;
+    };
+    std::vector<triangle_planes> planes;
 };
 
 inline cutting_planes find_cutting_planes(const insertion_input& in, const tet_adjacency& adj) {
@@ -590,6 +597,14 @@ inline cutting_planes find_cutting_planes(const insertion_input& in, const tet_a
         }
         cp.group_first[t + 1] = cp.group_first[t] + index_t(groups.size());
     }
+    cp.planes.resize(in.triangles.size());
+    tbb::parallel_for(std::size_t{0}, in.triangles.size(), [&](std::size_t t) {
+        const auto& tri = in.triangles[t];
+        auto& tp = cp.planes[t];
+        tp.plane = plane_through(V[tri[0]], V[tri[1]], V[tri[2]]);
+        make_exact(tp.plane);
+        tp.edges = edge_planes({V[tri[0]], V[tri[1]], V[tri[2]]});
+    });
     return cp;
 }
 
@@ -758,7 +773,8 @@ private:
     index_t tet_;
     std::vector<point> pts_;
     std::vector<cell> cells_;
-    std::vector<exact_plane> planes_;
+    std::vector<const exact_plane*> planes_; // every one exact
+    std::array<exact_plane, 4> face_planes_;
     std::vector<std::vector<std::int8_t>> signs_; // per plane, per point; 2 = unknown
     mpz_class num_, den_;                         // scratch for exact_sign
     std::unordered_map<std::uint64_t, std::uint32_t> plane_ids_;   // 4 * triangle + (0 | edge + 1)
@@ -776,40 +792,23 @@ private:
     std::map<std::vector<std::uint32_t>, triangulation> triangulations_;
     std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> side_points_;
 
-    std::uint32_t add_plane(std::uint64_t key, exact_plane pl) {
+    std::uint32_t add_plane(std::uint64_t key, const exact_plane& pl) {
         auto [it, fresh] = plane_ids_.try_emplace(key, std::uint32_t(planes_.size()));
         if (fresh) {
-            planes_.push_back(std::move(pl));
+            planes_.push_back(&pl);
             signs_.emplace_back();
         }
         return it->second;
     }
-    std::uint32_t triangle_plane(index_t t) {
-        const auto& tri = in_.triangles[t];
-        const auto& V = in_.vertices;
-        if (auto it = plane_ids_.find(4ull * t); it != plane_ids_.end()) return it->second;
-        return add_plane(4ull * t, plane_through(V[tri[0]], V[tri[1]], V[tri[2]]));
-    }
-    /// The plane of edge e of triangle t; the first request adds all three.
+    std::uint32_t triangle_plane(index_t t) { return add_plane(4ull * t, cp_.planes[t].plane); }
+    /// The plane of edge e of triangle t.
     std::uint32_t triangle_edge_plane(index_t t, int e) {
-        const std::uint64_t key = 4ull * t + std::uint64_t(e) + 1;
-        if (auto it = plane_ids_.find(key); it != plane_ids_.end()) return it->second;
-        const auto& tri = in_.triangles[t];
-        const auto& V = in_.vertices;
-        auto planes = edge_planes({V[tri[0]], V[tri[1]], V[tri[2]]});
-        std::uint32_t id = 0;
-        for (std::uint64_t k = 0; k < 3; ++k) {
-            const std::uint32_t added = add_plane(4ull * t + k + 1, std::move(planes[k]));
-            if (k == std::uint64_t(e)) id = added;
-        }
-        return id;
+        return add_plane(4ull * t + std::uint64_t(e) + 1, cp_.planes[t].edges[std::size_t(e)]);
     }
 
     /// Sign of plane k at x, exactly.
     int exact_sign(std::uint32_t k, const rational_point& x) {
-        exact_plane& pl = planes_[k];
-        make_exact(pl);
-        plane_value(pl, x, num_, den_);
+        plane_value(*planes_[k], x, num_, den_);
         return sgn(num_);
     }
 
@@ -817,7 +816,7 @@ private:
         auto& s = signs_[k];
         if (s.size() <= p) s.resize(pts_.size(), 2);
         if (s[p] != 2) return s[p];
-        const exact_plane& pl = planes_[k];
+        const exact_plane& pl = *planes_[k];
         const point& x = pts_[p];
         int r;
         if (pl.by_points && x.is_double) {
@@ -838,31 +837,116 @@ private:
         return r;
     }
 
+    /// The plane of the tet's face f (opposite local corner f), for the lines on it.
+    std::uint32_t face_plane(std::uint8_t f) {
+        const std::uint64_t key = (std::uint64_t(1) << 63) | f;
+        if (auto it = plane_ids_.find(key); it != plane_ids_.end()) return it->second;
+        const auto& tv = in_.tets[tet_];
+        const auto& fv = tet_local::face_vertices[f];
+        const auto& V = in_.vertices;
+        exact_plane& pl = face_planes_[f];
+        pl = plane_through(V[tv[fv[0]]], V[tv[fv[1]]], V[tv[fv[2]]]);
+        make_exact(pl);
+        return add_plane(key, pl);
+    }
+
+    /// True when planes i and j are not parallel (so they meet in a line): from their
+    /// normals in doubles where the filter can tell, else exactly.
+    bool independent(std::uint32_t i, std::uint32_t j) {
+        const exact_plane &P = *planes_[i], &Q = *planes_[j];
+        const vec3 c = idas::cross(P.normal, Q.normal);
+        if (max_abs(c) >
+            cross_error(max_abs(P.normal), P.normal_error, max_abs(Q.normal), Q.normal_error))
+            return true;
+        const int_vector e = cross(P.n, Q.n);
+        return sgn(e[0]) != 0 || sgn(e[1]) != 0 || sgn(e[2]) != 0;
+    }
+
+    /// Two planes through both a and b that meet in their line, if the tet knows them: the
+    /// tet's faces that hold both, and the planes whose sign is known to be 0 at both.
+    std::optional<std::array<std::uint32_t, 2>> line_through(std::uint32_t a, std::uint32_t b) {
+        std::array<std::uint32_t, 8> found{};
+        std::size_t n = 0;
+        const unsigned faces = pts_[a].faces & pts_[b].faces;
+        for (std::uint8_t f = 0; f < 4 && n < found.size(); ++f)
+            if (faces & (1u << f)) found[n++] = face_plane(f);
+        for (std::uint32_t k = 0; k < signs_.size() && n < found.size(); ++k) {
+            const auto& s = signs_[k];
+            if (s.size() > std::max(a, b) && s[a] == 0 && s[b] == 0) found[n++] = k;
+        }
+        for (std::size_t i = 0; i < n; ++i)
+            for (std::size_t j = i + 1; j < n; ++j)
+                if (independent(found[i], found[j])) return std::array{found[i], found[j]};
+        return std::nullopt;
+    }
+
+    /// The point where planes p, q and r meet, by Cramer's rule. Its integers are bounded
+    /// by the planes' sizes; a point cut from a segment between two cut points has factors
+    /// of both in it, over a thousand bits on 100071_sf, that only a long gcd removes.
+    rational_point meet(std::uint32_t p, std::uint32_t q, std::uint32_t r) {
+        const exact_plane &P = *planes_[p], &Q = *planes_[q], &R = *planes_[r];
+        // Scratch integers kept per thread: a cut tet meets planes a few dozen times.
+        thread_local std::array<int_vector, 3> c; // Q x R, R x P, P x Q
+        thread_local mpz_class det;
+        auto cross_into = [](int_vector& out, const int_vector& u, const int_vector& v) {
+            for (std::size_t i = 0; i < 3; ++i) {
+                const std::size_t j = (i + 1) % 3, k = (i + 2) % 3;
+                mpz_mul(out[i].get_mpz_t(), u[j].get_mpz_t(), v[k].get_mpz_t());
+                mpz_submul(out[i].get_mpz_t(), u[k].get_mpz_t(), v[j].get_mpz_t());
+            }
+        };
+        cross_into(c[0], Q.n, R.n), cross_into(c[1], R.n, P.n), cross_into(c[2], P.n, Q.n);
+        mpz_mul(det.get_mpz_t(), P.n[0].get_mpz_t(), c[0][0].get_mpz_t());
+        mpz_addmul(det.get_mpz_t(), P.n[1].get_mpz_t(), c[0][1].get_mpz_t());
+        mpz_addmul(det.get_mpz_t(), P.n[2].get_mpz_t(), c[0][2].get_mpz_t());
+        rational_point x;
+        for (std::size_t i = 0; i < 3; ++i) {
+            mpz_ptr num = x[int(i)].get_num_mpz_t();
+            mpz_mul(num, P.off.get_mpz_t(), c[0][i].get_mpz_t());
+            mpz_addmul(num, Q.off.get_mpz_t(), c[1][i].get_mpz_t());
+            mpz_addmul(num, R.off.get_mpz_t(), c[2][i].get_mpz_t());
+            mpz_set(x[int(i)].get_den_mpz_t(), det.get_mpz_t());
+            x[int(i)].canonicalize(); // also makes the denominator positive
+        }
+        return x;
+    }
+
     /// The point where plane k crosses segment (a, b), whose ends are strictly on
     /// opposite sides.
     std::uint32_t crossing(std::uint32_t a, std::uint32_t b, std::uint32_t k) {
         const std::uint64_t key =
             (std::uint64_t(std::min(a, b)) << 42) | (std::uint64_t(std::max(a, b)) << 20) | k;
         if (auto it = edge_points_.find(key); it != edge_points_.end()) return it->second;
-        const rational_point &A = pts_[a].q, &B = pts_[b].q;
-        // x = (fa B - fb A) / (fa - fb) with the plane's values fa = Na / Da, fb = Nb / Db,
-        // in integers, and one gcd per coordinate at the end.
-        exact_plane& pl = planes_[k];
-        make_exact(pl);
-        mpz_class Na, Da, Nb, Db;
-        plane_value(pl, A, Na, Da);
-        plane_value(pl, B, Nb, Db);
-        const mpz_class alpha = Na * Db, beta = Nb * Da, gap = alpha - beta;
         rational_point x;
-        for (int i = 0; i < 3; ++i) {
-            const mpz_class &an = A[i].get_num(), &ad = A[i].get_den(), &bn = B[i].get_num(),
-                            &bd = B[i].get_den();
-            x[i].get_num() = alpha * bn * ad - beta * an * bd;
-            x[i].get_den() = gap * ad * bd;
-            x[i].canonicalize(); // also makes the denominator positive
+        if (const auto line = line_through(a, b)) {
+            x = meet((*line)[0], (*line)[1], k);
+        } else {
+            // Not reached on the meshes of data/ (every segment's line was known), kept so
+            // that a point on more planes than the cut recorded still gets its crossing.
+            // x = (fa B - fb A) / (fa - fb) with the plane's values fa = Na / Da, fb = Nb / Db,
+            // in integers, and one gcd per coordinate at the end.
+            const rational_point &A = pts_[a].q, &B = pts_[b].q;
+            const exact_plane& pl = *planes_[k];
+            mpz_class Na, Da, Nb, Db;
+            plane_value(pl, A, Na, Da);
+            plane_value(pl, B, Nb, Db);
+            const mpz_class alpha = Na * Db, beta = Nb * Da, gap = alpha - beta;
+            for (int i = 0; i < 3; ++i) {
+                const mpz_class &an = A[i].get_num(), &ad = A[i].get_den(), &bn = B[i].get_num(),
+                                &bd = B[i].get_den();
+                x[i].get_num() = alpha * bn * ad - beta * an * bd;
+                x[i].get_den() = gap * ad * bd;
+                x[i].canonicalize(); // also makes the denominator positive
+            }
         }
         const std::uint32_t id = std::uint32_t(pts_.size());
         pts_.push_back(make_point(std::move(x), std::uint8_t(pts_[a].faces & pts_[b].faces)));
+        // Every plane through a and b holds x.
+        for (auto& s : signs_)
+            if (s.size() > std::max(a, b) && s[a] == 0 && s[b] == 0) {
+                s.resize(pts_.size(), 2);
+                s[id] = 0;
+            }
         signs_[k].resize(pts_.size(), 2);
         signs_[k][id] = 0;
         edge_points_.emplace(key, id);
@@ -947,8 +1031,7 @@ private:
                     if (sign(v, k) == 0 &&
                         std::find(section.begin(), section.end(), v) == section.end())
                         section.push_back(v);
-            make_exact(planes_[k]);
-            order_on_plane(section, planes_[k].n);
+            order_on_plane(section, planes_[k]->n);
             const polygon cap{section, std::int32_t(k)};
             P.facets.push_back(cap), N.facets.push_back(cap);
             next.push_back(std::move(P)), next.push_back(std::move(N));
@@ -1130,7 +1213,7 @@ private:
                          std::optional<rational_point>& exact) {
         for (int e = 0; e < 3; ++e) {
             const std::uint32_t k = triangle_edge_plane(t, e);
-            const exact_plane& pl = planes_[k];
+            const exact_plane& pl = *planes_[k];
             const vec3 d = approx - pl.anchor;
             const double val = dot(pl.normal, d);
             const double tol = filter_bound(pl, d, x_error);
