@@ -28,6 +28,7 @@
 #include <idas/predicates/orient.hpp>
 #include <idas/predicates/rational.hpp>
 
+#include <boost/container/small_vector.hpp>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
@@ -649,7 +650,7 @@ struct point {
 /// A convex polygon: corners in cyclic order; support >= 0 is a plane of the tet's
 /// table, support < 0 is the tet's face -1 - support.
 struct polygon {
-    std::vector<std::uint32_t> v;
+    boost::container::small_vector<std::uint32_t, 8> v; // most have 3 to 6 corners
     std::int32_t support = 0;
 };
 
@@ -980,7 +981,8 @@ private:
     }
 
     /// Orders points of a convex polygon on plane k (all corners) cyclically.
-    void order_on_plane(std::vector<std::uint32_t>& v, const int_vector& n) {
+    template <class Corners>
+    void order_on_plane(Corners& v, const int_vector& n) {
         // Drop the axis where the normal is largest: an exact affine bijection onto 2D.
         int drop = 0;
         for (int a = 1; a < 3; ++a)
@@ -1017,7 +1019,8 @@ private:
             }
             cell P, N;
             polygon pos, neg;
-            std::vector<std::uint32_t> section;
+            polygon cap;
+            auto& section = cap.v;
             for (const polygon& f : c.facets) {
                 int side = 0;
                 if (split(f, k, pos, neg, side)) {
@@ -1032,7 +1035,7 @@ private:
                         std::find(section.begin(), section.end(), v) == section.end())
                         section.push_back(v);
             order_on_plane(section, planes_[k]->n);
-            const polygon cap{section, std::int32_t(k)};
+            cap.support = std::int32_t(k);
             P.facets.push_back(cap), N.facets.push_back(cap);
             next.push_back(std::move(P)), next.push_back(std::move(N));
         }
@@ -1227,7 +1230,7 @@ private:
 
     /// Triangulation of a facet part, the same for every tet and cell that holds it.
     const triangulation& triangulate(const polygon& P, const std::vector<index_t>& on_plane) {
-        std::vector<std::uint32_t> key = P.v;
+        std::vector<std::uint32_t> key(P.v.begin(), P.v.end());
         std::sort(key.begin(), key.end());
         auto [it, fresh] = triangulations_.try_emplace(std::move(key));
         triangulation& T = it->second;
