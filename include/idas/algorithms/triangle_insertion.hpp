@@ -320,12 +320,16 @@ struct triangle_normals {
     }
 };
 
+/// `shares_corner`: a corner of the triangle is a corner of the tet, so they meet.
 inline meeting how_triangle_meets(const vec3& a, const vec3& b, const vec3& c,
                                   const triangle_normals& normals, const std::array<vec3, 4>& p,
-                                  const std::array<int, 4>& s) {
+                                  const std::array<int, 4>& s, bool shares_corner = false) {
     int pos = 0, neg = 0, zero = 0;
     for (int i = 0; i < 4; ++i) pos += s[i] > 0, neg += s[i] < 0, zero += s[i] == 0;
     if (pos == 4 || neg == 4) return meeting::misses;
+    // Most tets of a walk are around the triangle's corners. One that the triangle's plane
+    // meets only in a corner or an edge touches it: the tests below would say so too.
+    if (shares_corner && (pos == 0 || neg == 0) && zero != 3) return meeting::touches;
     // Each face's plane against the triangle's corners. Every face of a positively oriented
     // tet, as face_vertices lists it, has the opposite corner on its negative side (the
     // four permutations (face, opposite corner) are odd).
@@ -552,7 +556,10 @@ inline cutting_planes find_cutting_planes(const insertion_input& in, const tet_a
                         }
                         s[std::size_t(i)] = L.side[v];
                     }
-                    const meeting how = how_triangle_meets(a, b, c, normals, p, s);
+                    const bool shares_corner = tet_local::contains(tv, tri[0]) ||
+                                               tet_local::contains(tv, tri[1]) ||
+                                               tet_local::contains(tv, tri[2]);
+                    const meeting how = how_triangle_meets(a, b, c, normals, p, s, shares_corner);
                     if (how == meeting::misses) return;
                     L.queue.push_back(t);
                     if (how == meeting::with_area) L.pairs.emplace_back(t, index_t(ti));
