@@ -191,6 +191,25 @@ int run_tetmesh_optimized(const tetmesh_arguments& a, const idas::io::surface& s
                              {"smooths", opt.smooths},
                              {"sizing_refinements", opt.sizing_refinements},
                              {"rational_vertices_left", opt.rational_left}};
+        // Where the optimization's time went: each operation's passes (their serial set-up
+        // and tail included) and, the rest, the work between rounds (energies, rounding,
+        // sizing).
+        static constexpr const char* kinds[] = {"split", "collapse", "swap", "smooth"};
+        double in_phases = 0;
+        for (std::size_t k = 0; k < 4; ++k) {
+            const auto& p = opt.phases[k];
+            j["optimization"]["phases"][kinds[k]] = {{"seconds", p.seconds},
+                                                     {"setup", p.setup_seconds},
+                                                     {"serial_tail", p.tail_seconds},
+                                                     {"attempted", p.attempted},
+                                                     {"succeeded", p.succeeded},
+                                                     {"lock_failures", p.lock_failures},
+                                                     {"stolen", p.stolen},
+                                                     {"deferred_to_serial", p.deferred_to_serial}};
+            in_phases += p.seconds;
+        }
+        j["optimization"]["seconds_between_rounds"] = opt.seconds - in_phases;
+        j["optimization"]["max_energy_per_round"] = opt.max_energy_history;
         j["kept"] = a.options.keep_outside ? "all tets; MSH physical tag 1 = inside, 2 = outside"
                                            : "inside tets (MSH physical tag 1)";
         j["seconds"]["optimization"] = qr.seconds_optimization;

@@ -112,13 +112,6 @@ inline bool improves(const energy_sum& before, const energy_sum& after, bool kee
     return !keep_max || after.max <= before.max;
 }
 
-/// Whether the backend stores face links between tets (so writing a tet writes its
-/// neighbours' links).
-template <class Mesh>
-concept links_faces = requires(const Mesh& m, index_t t, std::uint8_t lf) {
-    m.connectivity().opposite_face(t, lf);
-};
-
 /// Per-thread marks on vertices, for counting distinct neighbours in a star without a
 /// search: a vertex is marked in the current round iff stamp == now (a linear search of
 /// the star's vertices cost as much as everything else done with them).
@@ -339,40 +332,10 @@ struct harmonic_flip_rules {
         return t2 != invalid_index && improves_23(m, t.tid, t.local_face, t2);
     }
 
-    // ---- parallel: the smallest region each flip needs ----
-    // The executor holds the tuple's vertex and has checked the tuple, so its tet is frozen.
-    // Every writer of a tet holds all its vertices, so holding a vertex freezes its star.
-    // A flip reads and writes only the tets it replaces (a 3-2 or 4-4 swap: the tets around
-    // its edge; a 2-3 swap: the two tets of its face), looks up edges and faces in the stars
-    // of their vertices (find_edge / find_face / opposite_tet start at a held vertex), and
-    // its new tets have only those vertices; `renew` reads the stars of the new tets'
-    // vertices. So holding the vertices of the replaced tets is enough: 5 for 2-3 and 3-2,
-    // 6 for 4-4, against the hundreds of the closed stars.
-    // Backends that link tets across faces (adjacency_tet) rewrite the links of the
-    // neighbours across the outer faces too, tets whose fourth vertex is not held: they
-    // keep the executor's default region (the closed stars).
+    // ---- parallel: the smallest region each flip needs (the vertices of its tets) ----
     template <class Op, class Mesh, class Claim>
     bool lock_region(Op, const Mesh& m, const tet_tuple& t, Claim&& claim) const {
-        if constexpr (detail::links_faces<Mesh>) return closed_star_region<Op>(m, t, claim);
-        const auto& tv = m.tet_vertices(t.tid);
-        for (index_t x : tv)
-            if (!claim(x)) return false;
-        if constexpr (std::is_same_v<Op, op::face_swap_23>) {
-            // opposite_tet reads the star of a held face vertex.
-            const index_t t2 = m.connectivity().opposite_tet(t.tid, t.local_face);
-            if (t2 != invalid_index)
-                for (index_t x : m.tet_vertices(t2))
-                    if (!claim(x)) return false;
-        } else {
-            const auto [a, b] = m.edge_vertices(t);
-            for (index_t g : m.vertex_tets(a)) {
-                const auto& gv = m.tet_vertices(g);
-                if (!tet_local::contains(gv, b)) continue;
-                for (index_t x : gv)
-                    if (!claim(x)) return false;
-            }
-        }
-        return true;
+        return replaced_tets_region<Op>(m, t, claim);
     }
 
     // ---- schedule ----
@@ -771,6 +734,6 @@ struct harmonic_triangulation {
 static_assert(spec_for<harmonic_flip_spec<harmonic_mode::complete>, tet_mesh<>>);
 static_assert(spec_for<harmonic_smooth_spec, tet_mesh<>>);
 static_assert(tet_mesh_like<tet_mesh<>>);
-static_assert(!detail::links_faces<tet_mesh<>>); // so the flips' minimal lock regions apply
+static_assert(!idas::detail::links_faces<tet_mesh<>>); // so the flips' minimal lock regions apply
 
 } // namespace idas::algorithms

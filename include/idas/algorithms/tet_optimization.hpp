@@ -533,6 +533,13 @@ struct tet_split_spec : tet_optimization_invariants<Envelope> {
             if (too_long(m, a, b)) push(op::split_tet_edge{}, t);
         });
     }
+    /// In parallel, a split holds the vertices of the tets around its edge: it replaces
+    /// only those, its new vertex is the worker's own, and its hooks read a and b, those
+    /// tets and the new ones.
+    template <class Mesh, class Claim>
+    bool lock_region(op::split_tet_edge, const Mesh& m, const tet_tuple& t, Claim&& claim) const {
+        return replaced_tets_region<op::split_tet_edge>(m, t, claim);
+    }
 };
 
 template <class Envelope>
@@ -775,6 +782,12 @@ struct tet_swap_spec : tet_optimization_invariants<Envelope> {
     void renew(Op, const Mesh& m, const op_result<tet_tuple>& r, Push& push) const {
         for (const tet_tuple& x : r.cells)
             if (detail::amips(m, m.tet_vertices(x.tid)) > s.swap_above) push_around(m, x.tid, push);
+    }
+    /// In parallel, a swap holds the vertices of the tets it replaces, not the closed stars:
+    /// its hooks read only those tets, their tracked bits and the new tets.
+    template <class Op, class Mesh, class Claim>
+    bool lock_region(Op, const Mesh& m, const tet_tuple& t, Claim&& claim) const {
+        return replaced_tets_region<Op>(m, t, claim);
     }
 };
 

@@ -126,8 +126,10 @@ struct hooks {
         if constexpr (refused_hook<Spec, Mesh, Op>) spec.refused(Op{}, m, t);
     }
 
-    /// Slots to set aside for new simplices in parallel: the spec's, or as many vertices as
-    /// the mesh has (at least 4096) and twice that many cells.
+    /// Slots to set aside for new simplices in parallel: the spec's, or room for the mesh
+    /// to double: as many vertices as it has (at least 4096) and as many cells (at least
+    /// twice the vertices). A tet mesh has about six tets a vertex, so twice the vertices
+    /// alone sent two thirds of a tet mesh's first splits to the serial pass.
     static std::pair<index_t, index_t> parallel_growth(Spec& spec, const Mesh& m) {
         if constexpr (requires { spec.parallel_growth(m).first; }) {
             const auto [v, c] = spec.parallel_growth(m);
@@ -137,7 +139,7 @@ struct hooks {
             return {v, 2 * v};
         } else {
             const index_t v = std::max<index_t>(4096, index_t(m.n_vertices()));
-            return {v, 2 * v};
+            return {v, std::max<index_t>(2 * v, index_t(cells::live(m)))};
         }
     }
 

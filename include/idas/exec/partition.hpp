@@ -21,6 +21,14 @@ concept partition_policy = requires(const Mesh& m, unsigned parts) {
     { P::assign(m, parts) } -> std::same_as<std::vector<std::uint32_t>>;
 };
 
+/// A policy that can also weigh the vertices: `assign(mesh, parts, weight)` gives each
+/// part about the same total weight (weight per vertex slot).
+template <class P, class Mesh>
+concept weighted_partition_policy = partition_policy<P, Mesh> &&
+    requires(const Mesh& m, unsigned parts, const std::vector<std::uint32_t>& weight) {
+    { P::assign(m, parts, weight) } -> std::same_as<std::vector<std::uint32_t>>;
+};
+
 namespace partition {
 
 namespace detail {
@@ -94,6 +102,53 @@ struct morton {
         // same parts, as keys are unique).
         cut(keyed.begin(), keyed.end(), 0, 0, parts, keyed.size(), parts, part);
         return part;
+    }
+
+    /// Cuts the curve into parts of about equal weight instead (each within one vertex's
+    /// weight of its share). Without any weight, equal vertex counts.
+    template <class Mesh>
+    static std::vector<std::uint32_t> assign(const Mesh& m, unsigned parts,
+                                             const std::vector<std::uint32_t>& weight) {
+        std::uint64_t total = 0;
+        for (std::uint32_t w : weight) total += w;
+        if (total == 0) return assign(m, parts);
+        std::vector<std::uint32_t> part(m.vertex_slots(), 0);
+        if (parts <= 1 || part.empty()) return part;
+        auto keyed = keys(m);
+        weighted_cut(keyed.begin(), keyed.end(), 0, 0, parts, total, parts, weight, part);
+        return part;
+    }
+
+    /// As cut(), with ranks replaced by weights: [first, last) holds the weight from
+    /// `before` on. Each cut is a weighted selection: halving the range around a median
+    /// (nth_element) towards the side that holds the cut's weight, linear on average.
+    static void weighted_cut(iterator first, iterator last, std::uint64_t before, unsigned p0,
+                             unsigned p1, std::uint64_t total, unsigned parts,
+                             const std::vector<std::uint32_t>& weight,
+                             std::vector<std::uint32_t>& part) {
+        if (p1 - p0 <= 1) {
+            for (auto it = first; it != last; ++it) part[it->second] = p0;
+            return;
+        }
+        const unsigned mid = p0 + (p1 - p0) / 2;
+        const std::uint64_t target = total * mid / parts; // the weight before part mid
+        iterator lo = first, hi = last;
+        std::uint64_t left = before; // the weight before lo
+        while (hi - lo > 1) {
+            const iterator m = lo + (hi - lo) / 2;
+            std::nth_element(lo, m, hi);
+            std::uint64_t w = 0;
+            for (auto it = lo; it != m; ++it) w += weight[it->second];
+            if (left + w <= target)
+                lo = m, left += w;
+            else
+                hi = m;
+        }
+        // [first, lo) weighs left <= target; the vertex at lo goes below the cut if that
+        // brings its side nearer the target.
+        if (lo != hi && 2 * (target - left) > weight[lo->second]) left += weight[lo->second], ++lo;
+        weighted_cut(first, lo, before, p0, mid, total, parts, weight, part);
+        weighted_cut(lo, last, left, mid, p1, total, parts, weight, part);
     }
 };
 

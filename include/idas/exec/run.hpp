@@ -6,6 +6,7 @@
 #include <idas/exec/claim.hpp>
 #include <idas/exec/hooks.hpp>
 #include <idas/exec/op_list.hpp>
+#include <idas/exec/partition.hpp>
 #include <idas/exec/queue.hpp>
 #include <idas/exec/report.hpp>
 #include <idas/exec/workers.hpp>
@@ -344,27 +345,48 @@ private:
             workers_.push_back(std::make_unique<worker>());
             workers_.back()->index = w;
         }
-        part_ = Partition::assign(m_, P);
         seed_workers();
         live_ = hooks::counts(m_);
         live_packed_.store(pack(live_.faces, live_.vertices), std::memory_order_relaxed);
         if (hooks::should_stop(spec_, live_)) stop_.store(true, std::memory_order_relaxed);
     }
 
-    /// Initial entries go to the part of their tuple's vertex.
+    /// Cuts the vertices into parts and gives each part's queue the initial entries of its
+    /// vertices. Where the partition policy can weigh vertices, each vertex weighs as many
+    /// entries as it seeds, so the parts start with equal work rather than equal vertex
+    /// counts (in a tet mesh's optimization the work lies along the surface and in
+    /// clusters of bad tets, not in the background grid's vertices).
     void seed_workers() {
         const unsigned P = parts();
+        const index_t n = m_.vertex_slots();
+        std::vector<std::uint32_t> seeds(n, 0); // initial entries per vertex
         if constexpr (hooks::seeds_per_vertex && !detail::initial_hook<Spec, Mesh>) {
-            // Each worker finds the entries of its own part's vertices.
-            each_worker([&](worker& me) {
+            // Found in blocks of vertices, in parallel; a block's entries are in vertex order.
+            constexpr index_t block = 4096;
+            std::vector<std::vector<entry>> found((n + block - 1) / block);
+            detail::run_workers(options_.threads, unsigned(found.size()), [&](unsigned k) {
                 auto push = [&](auto op, const tuple& t) {
-                    me.q.push(hooks::template make_entry<decltype(op)>(spec_, m_, t));
-                    ++me.report.pushed;
+                    found[k].push_back(hooks::template make_entry<decltype(op)>(spec_, m_, t));
                 };
-                for (index_t v = 0; v < m_.vertex_slots(); ++v)
-                    if (part_[v] == me.index && m_.vertex_alive(v))
-                        hooks::initial_at(spec_, m_, v, push);
+                for (index_t v = k * block; v < std::min(n, (k + 1) * block); ++v) {
+                    if (!m_.vertex_alive(v)) continue;
+                    const std::size_t before = found[k].size();
+                    hooks::initial_at(spec_, m_, v, push);
+                    seeds[v] = std::uint32_t(found[k].size() - before);
+                }
             });
+            part_ = assign_parts(seeds, P);
+            each_worker([&](worker& me) {
+                for (std::size_t k = 0; k < found.size(); ++k) {
+                    std::size_t i = 0;
+                    for (index_t v = index_t(k * block); i < found[k].size(); ++v) {
+                        if (part_[v] == me.index)
+                            for (std::uint32_t c = 0; c < seeds[v]; ++c) me.q.push(found[k][i + c]);
+                        i += seeds[v];
+                    }
+                }
+            });
+            for (const auto& f : found) report_.pushed += f.size();
         } else {
             std::vector<entry> all;
             auto push = [&](auto op, const tuple& t) {
@@ -372,6 +394,9 @@ private:
             };
             hooks::initial(spec_, m_, push);
             report_.pushed += all.size();
+            for (const entry& e : all)
+                if (e.tuple.vid < n) ++seeds[e.tuple.vid];
+            part_ = assign_parts(seeds, P);
             detail::run_workers(options_.threads, P, [&](unsigned w) {
                 auto& q = workers_[w]->q;
                 q.reserve(all.size() / P * 2 + 64);
@@ -384,6 +409,14 @@ private:
                 }
             });
         }
+    }
+
+    /// The partition, weighted by the seeds per vertex where the policy weighs vertices.
+    std::vector<std::uint32_t> assign_parts(const std::vector<std::uint32_t>& seeds, unsigned P) {
+        if constexpr (weighted_partition_policy<Partition, Mesh>)
+            return Partition::assign(m_, P, seeds);
+        else
+            return Partition::assign(m_, P);
     }
 
     void stop_workers() {
