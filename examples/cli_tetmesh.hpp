@@ -205,6 +205,7 @@ int run_tetmesh_optimized(const tetmesh_arguments& a, const idas::io::surface& s
                                                      {"succeeded", p.succeeded},
                                                      {"lock_failures", p.lock_failures},
                                                      {"stolen", p.stolen},
+                                                     {"retaken", p.retaken},
                                                      {"deferred_to_serial", p.deferred_to_serial}};
             in_phases += p.seconds;
         }

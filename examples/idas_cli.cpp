@@ -472,6 +472,7 @@ int run_decimate(const std::string& in, const std::string& out, const decimate_o
         j["stale_entries"] = r.stale;
         j["lock_failures"] = r.lock_failures;
         j["deferred_to_serial"] = r.deferred_to_serial;
+        j["retaken"] = r.retaken;
         fmt::print("{}\n", j.dump(2));
     } else {
         fmt::print("{}: {} -> {} faces (target {}) by {} on {} thread{}{} ({} backend) in {:.3f} s "

@@ -38,7 +38,9 @@ TEST_CASE("adjacency tet in parallel: 2-3 growth beyond the slot pools") {
         executor<test::small_pool, adjacency_mesh, lock::vertex_try_lock, queue::fifo>::run(
             m, spec, {.threads = 4});
     CHECK(r.succeeded > 0);
-    CHECK(r.deferred_to_serial > 0);
+    // Some 2-3 swaps did not fit their worker's pool: set aside, then done on merged
+    // parts (another worker's pool) or in the serial pass.
+    CHECK(r.deferred_to_serial + r.retaken > 0);
     CHECK(find_inconsistency(m, true) == std::nullopt);
     CHECK(test::mismatches_against_search(m) == 0);
     CHECK(test::inverted_or_flat_tets(m) == 0);

@@ -14,6 +14,7 @@
 #include <iterator>
 #include <sstream>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #if defined(IDAS_HAS_CGAL)
@@ -74,7 +75,11 @@ void check_decimation(const char* file, double ratio) {
         const auto e = find_inconsistency(m);
         CHECK_MESSAGE(!e, *e);
         CHECK(test::topology_of(m) == before);
-        const std::string bytes = written(m, "deterministic");
+        // A file per test case and input: ctest runs test cases side by side.
+        const std::string bytes =
+            written(m, std::string(std::is_same_v<Spec, qslim_spec> ? "deterministic_qslim_"
+                                                                    : "deterministic_sec_") +
+                           file);
         if (threads == 1) {
             reference = bytes, reference_report = counts(r);
         } else {

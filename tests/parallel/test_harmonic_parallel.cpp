@@ -40,7 +40,9 @@ TEST_CASE("harmonic triangulation in parallel: 2-3 growth beyond the slot pools"
     const auto r = executor<test::small_pool, tet_mesh<>, lock::vertex_try_lock, queue::fifo>::run(
         m, spec, {.threads = 4});
     CHECK(r.succeeded > 0);
-    CHECK(r.deferred_to_serial > 0);
+    // Some 2-3 swaps did not fit their worker's pool: set aside, then done on merged
+    // parts (another worker's pool) or in the serial pass.
+    CHECK(r.deferred_to_serial + r.retaken > 0);
     // No stopping criterion, so the workers kept no live counts: the report sums them.
     CHECK(r.faces == std::int64_t(m.n_tets()));
     CHECK(r.vertices == std::int64_t(m.n_vertices()));

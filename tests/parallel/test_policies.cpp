@@ -7,6 +7,8 @@
 #include <idas/algorithms/shortest_edge_collapse.hpp>
 #include <idas/mesh/tet_mesh.hpp>
 
+#include <tbb/global_control.h>
+
 #include <atomic>
 #include <cmath>
 #include <limits>
@@ -166,6 +168,15 @@ TEST_CASE("queue policies: fifo pops in push order and sweeps keep it") {
     CHECK(q.size() == 45);
     for (index_t i = 11; i < 100; i += 2) REQUIRE((q.pop(e) && e.tuple.fid == i));
     CHECK_FALSE(q.pop(e));
+    // A thief takes from the far end; the owner's order stays.
+    for (index_t i = 0; i < 6; ++i) q.push({0.0, {0, i, 0, 0}, 0, 0});
+    REQUIRE((q.pop(e) && e.tuple.fid == 0));
+    REQUIRE((q.pop_back(e) && e.tuple.fid == 5));
+    REQUIRE((q.pop(e) && e.tuple.fid == 1));
+    CHECK(q.size() == 3);
+    for (index_t i = 4; i > 1; --i) REQUIRE((q.pop_back(e) && e.tuple.fid == i));
+    CHECK_FALSE(q.pop_back(e));
+    CHECK_FALSE(q.pop(e));
 }
 
 TEST_CASE_TEMPLATE("serial decimation is the same whichever heap orders it", Mesh,
@@ -275,6 +286,45 @@ TEST_CASE("morton partition by weight: contiguous on the curve, each part near i
     // Without weight, the cuts of the unweighted partition.
     const std::vector<std::uint32_t> none(m.vertex_slots(), 0);
     CHECK(partition::morton::assign(m, 4, none) == partition::morton::assign(m, 4));
+}
+
+TEST_CASE("morton partition by weight: the cuts of a full sort, on any thread count") {
+    // The reference: sort by (code, vertex); cut k lies before the vertex whose weight
+    // passes the target total * k / parts, or after it if that is nearer the target.
+    // armadillo (many vertices per histogram bucket) after a tenth of its faces went, so with dead
+    // slots (collapsed edges) and weights in clusters; 64 parts put several cuts in one bucket.
+    auto m = idas::test::load("armadillo.obj");
+    shortest_edge_collapse_spec<> spec;
+    spec.target_faces = std::int64_t(m.n_faces() * 9 / 10);
+    shortest_edge_collapse<>::run(m, spec);
+    REQUIRE(m.n_vertices() < m.vertex_slots());
+    auto sorted = partition::morton::keys(m);
+    std::sort(sorted.begin(), sorted.end());
+    std::vector<std::uint32_t> weight(m.vertex_slots(), 0);
+    std::uint64_t total = 0;
+    for (std::size_t i = 0; i < sorted.size(); ++i) {
+        const std::uint32_t w = (i / 500) % 7 == 3 ? 40 : i % 5 == 0 ? 1 : 0;
+        weight[sorted[i].second] = w, total += w;
+    }
+    for (unsigned parts : {2u, 5u, 16u, 64u}) {
+        CAPTURE(parts);
+        std::vector<std::uint32_t> expected(m.vertex_slots(), 0);
+        std::size_t i = 0;
+        std::uint64_t before = 0;
+        for (unsigned k = 1; k < parts; ++k) {
+            const std::uint64_t target = total * k / parts;
+            while (before + weight[sorted[i].second] <= target)
+                before += weight[sorted[i++].second];
+            const bool after = 2 * (target - before) > weight[sorted[i].second];
+            for (std::size_t j = i + (after ? 1 : 0); j < sorted.size(); ++j)
+                expected[sorted[j].second] = k;
+        }
+        for (int threads : {1, 2, 5}) {
+            CAPTURE(threads);
+            const tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+            CHECK(partition::morton::assign(m, parts, weight) == expected);
+        }
+    }
 }
 
 TEST_CASE("vertex_try_lock: re-claiming is free for the holder, refused to others") {

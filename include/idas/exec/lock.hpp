@@ -105,7 +105,10 @@ public:
     template <class Run>
     static void execute(Run& run) {
         if (!run.parallel()) return run.serial_phase();
-        run.parallel_run([&] { claiming_phase(run); });
+        run.parallel_run([&] {
+            do claiming_phase(run);
+            while (run.retake_set_aside());
+        });
     }
 
     /// Lost races after which a worker gives up an entry cheaper than any other it has
@@ -223,7 +226,7 @@ public:
         me.level.store(std::numeric_limits<double>::infinity(), std::memory_order_relaxed);
         const unsigned P = run.parts();
         for (unsigned k = 1; k < P; ++k) {
-            if (run.pop(run.worker_at((me.index + k) % P), e)) {
+            if (run.steal(run.worker_at((me.index + k) % P), e)) {
                 ++me.report.stolen;
                 return true;
             }

@@ -212,6 +212,14 @@ struct fifo {
             if (head_ == items_.size()) items_.clear(), head_ = 0;
             return true;
         }
+        /// The last entry pushed (for a thief: the farthest from what the owner pops).
+        bool pop_back(E& out) {
+            if (head_ == items_.size()) return false;
+            out = items_.back();
+            items_.pop_back();
+            if (head_ == items_.size()) items_.clear(), head_ = 0;
+            return true;
+        }
         std::size_t size() const noexcept { return items_.size() - head_; }
         void clear() noexcept { items_.clear(), head_ = 0; }
         void reserve(std::size_t n) { items_.reserve(n); }

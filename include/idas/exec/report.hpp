@@ -45,6 +45,7 @@ struct run_report {
                   succeeded = 0, refused = 0;
     std::uint64_t lock_failures = 0, deferred_to_serial = 0, stolen = 0;
     std::uint64_t crossed_parts = 0; // own_part_first: waited for the claiming phase
+    std::uint64_t retaken = 0;       // set aside for the serial pass, then dealt out again
     double owner_seconds = 0;        // own_part_first: time of the lock-free phase
     std::uint64_t rounds = 0;        // deterministic_rounds: rounds run
     std::int64_t faces = 0, vertices = 0;
@@ -63,7 +64,8 @@ struct run_report {
         skipped += o.skipped, attempted += o.attempted, succeeded += o.succeeded;
         refused += o.refused, lock_failures += o.lock_failures;
         deferred_to_serial += o.deferred_to_serial, stolen += o.stolen;
-        crossed_parts += o.crossed_parts, owner_seconds += o.owner_seconds, rounds += o.rounds;
+        crossed_parts += o.crossed_parts, retaken += o.retaken, owner_seconds += o.owner_seconds;
+        rounds += o.rounds;
         seconds += o.seconds, setup_seconds += o.setup_seconds, tail_seconds += o.tail_seconds;
         return *this;
     }

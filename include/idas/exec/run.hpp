@@ -144,11 +144,50 @@ public:
         tbb::spin_mutex::scoped_lock lk(me.mutex);
         return me.q.pop(e);
     }
+    /// Takes an entry of another worker's queue, under its lock: from the far end where the
+    /// queue has one (a FIFO's next entries lie next to what its owner is doing, so a thief
+    /// taking them would race the owner), else its next.
+    bool steal(worker& victim, entry& e) {
+        tbb::spin_mutex::scoped_lock lk(victim.mutex);
+        if constexpr (requires { victim.q.pop_back(e); })
+            return victim.q.pop_back(e);
+        else
+            return victim.q.pop(e);
+    }
     /// Gives an entry to the serial pass that ends the run.
     void defer_to_final_pass(const entry& e) {
         tbb::spin_mutex::scoped_lock lk(final_mutex_);
         final_pass_.push_back(e);
     }
+
+    /// Between claiming phases, with no worker running: deals the entries set aside for
+    /// the serial pass back out, and says whether it did. They lost their races at the
+    /// borders of parts, while the neighbouring parts were busy (on 16 threads a tet mesh's
+    /// smoothing set aside a third of its vertices, and the serial pass then took four
+    /// fifths of the phase). Each time, neighbouring parts are merged in pairs (parts are
+    /// pieces of one curve), so the borders where they lost are inside one queue now:
+    /// after log2(parts) such phases what is left goes to the serial pass. Not after a stop
+    /// (a goal leaves its last operations to the serial pass on purpose), nor for fewer
+    /// than `set_aside_worth_a_phase` entries per queue.
+    bool retake_set_aside() {
+        const unsigned group = 2u << merged_levels_; // parts per queue in the next phase
+        const unsigned queues = (parts() + group - 1) / group;
+        const std::size_t n = final_pass_.size();
+        if (stopped() || queues < 2 || n < set_aside_worth_a_phase * queues) return false;
+        ++merged_levels_;
+        const unsigned P = parts();
+        for (entry e : final_pass_) {
+            e.retries = 0;
+            const index_t v = e.tuple.vid;
+            const unsigned p = v < part_.size() ? part_[v] : v % P;
+            workers_[p / group * group]->q.push(e);
+        }
+        report_.pushed += n, retaken_ += n;
+        final_pass_.clear();
+        return true;
+    }
+    /// Entries per queue below which the set-aside entries go straight to the serial pass.
+    static constexpr std::size_t set_aside_worth_a_phase = 16;
 
     /// The one step of every phase. `claimer.claim(Op{}, tuple&)` holds the operation's
     /// region (or says why not) and `claimer.release()` lets it go; `on_success(Op{},
@@ -430,6 +469,8 @@ private:
         }
         report_.threads = options_.threads;
         for (auto& w : workers_) report_ += w->report;
+        // Set aside and dealt out again: not the serial pass's.
+        report_.retaken += retaken_, report_.deferred_to_serial -= retaken_, retaken_ = 0;
         if constexpr (ops::adds_simplices) m_.end_parallel();
         m_.set_slot_recycling(true);
 
@@ -487,6 +528,8 @@ private:
     std::vector<std::uint32_t> part_;
     std::unique_ptr<Lock> locks_;
     std::vector<entry> final_pass_;
+    unsigned merged_levels_ = 0; // retake_set_aside: parts merged in pairs so many times
+    std::size_t retaken_ = 0;
     tbb::spin_mutex final_mutex_;
 };
 
