@@ -163,8 +163,8 @@ public:
     /// Between claiming phases, with no worker running: deals the entries set aside for
     /// the serial pass back out, and says whether it did. They lost their races at the
     /// borders of parts, while the neighbouring parts were busy (on 16 threads a tet mesh's
-    /// smoothing set aside a third of its vertices, and the serial pass then took four
-    /// fifths of the phase). Each time, neighbouring parts are merged in pairs (parts are
+    /// smoothing set aside a fifth of its vertex entries, and the serial pass then took
+    /// four fifths of the phase). Each time, neighbouring parts are merged in pairs (parts are
     /// pieces of one curve), so the borders where they lost are inside one queue now:
     /// after log2(parts) such phases what is left goes to the serial pass. Not after a stop
     /// (a goal leaves its last operations to the serial pass on purpose), nor for fewer
