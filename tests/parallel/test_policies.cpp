@@ -291,8 +291,8 @@ TEST_CASE("morton partition by weight: contiguous on the curve, each part near i
 TEST_CASE("morton partition by weight: the cuts of a full sort, on any thread count") {
     // The reference: sort by (code, vertex); cut k lies before the vertex whose weight
     // passes the target total * k / parts, or after it if that is nearer the target.
-    // armadillo (many vertices per histogram bucket) after a tenth of its faces went, so with dead
-    // slots (collapsed edges) and weights in clusters; 64 parts put several cuts in one bucket.
+    // Armadillo (many vertices per histogram bucket) after a tenth of its faces went: dead
+    // slots (collapsed edges); weights in clusters. Weight on dead slots alone: equal counts.
     auto m = idas::test::load("armadillo.obj");
     shortest_edge_collapse_spec<> spec;
     spec.target_faces = std::int64_t(m.n_faces() * 9 / 10);
@@ -325,6 +325,9 @@ TEST_CASE("morton partition by weight: the cuts of a full sort, on any thread co
             CHECK(partition::morton::assign(m, parts, weight) == expected);
         }
     }
+    std::vector<std::uint32_t> dead_only(m.vertex_slots(), 0);
+    for (index_t v = 0; v < m.vertex_slots(); ++v) dead_only[v] = m.vertex_alive(v) ? 0 : 9;
+    CHECK(partition::morton::assign(m, 16, dead_only) == partition::morton::assign(m, 16));
 }
 
 TEST_CASE("vertex_try_lock: re-claiming is free for the holder, refused to others") {

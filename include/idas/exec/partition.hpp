@@ -171,6 +171,7 @@ private:
             for (std::size_t b = 0; b < buckets; ++b) before[b + 1] += sum[b];
         std::partial_sum(before.begin(), before.end(), before.begin());
         const std::uint64_t total = before.back();
+        if (weight && total == 0) return cut(m, parts, nullptr); // weight only on dead slots
 
         // The cuts' targets and the buckets they fall in (the first whose weight passes).
         std::vector<std::uint64_t> target(parts);

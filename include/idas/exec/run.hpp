@@ -164,17 +164,25 @@ public:
     /// the serial pass back out, and says whether it did. They lost their races at the
     /// borders of parts, while the neighbouring parts were busy (on 16 threads a tet mesh's
     /// smoothing set aside a fifth of its vertex entries, and the serial pass then took
-    /// four fifths of the phase). Each time, neighbouring parts are merged in pairs (parts are
-    /// pieces of one curve), so the borders where they lost are inside one queue now:
-    /// after log2(parts) such phases what is left goes to the serial pass. Not after a stop
-    /// (a goal leaves its last operations to the serial pass on purpose), nor for fewer
-    /// than `set_aside_worth_a_phase` entries per queue.
+    /// four fifths of the phase). Each time, neighbouring parts are merged in pairs (Morton
+    /// parts are pieces of one curve), so the borders where they lost are inside one queue
+    /// now; once two queues would become one (at once on 2 threads), what is left goes to
+    /// the serial pass. Not after a stop (a goal leaves its last operations to the serial
+    /// pass on purpose), nor for fewer than `set_aside_worth_a_phase` entries per queue.
     bool retake_set_aside() {
         const unsigned group = 2u << merged_levels_; // parts per queue in the next phase
         const unsigned queues = (parts() + group - 1) / group;
         const std::size_t n = final_pass_.size();
         if (stopped() || queues < 2 || n < set_aside_worth_a_phase * queues) return false;
+        if constexpr (hooks::watches_progress) { // the workers check it only now and then
+            if (hooks::should_stop(spec_, shared_progress())) {
+                stop_.store(true, std::memory_order_relaxed);
+                return false;
+            }
+        }
         ++merged_levels_;
+        for (auto& w : workers_) // a new phase: the other parts' levels are read anew
+            w->others_checked_below = -std::numeric_limits<double>::infinity();
         const unsigned P = parts();
         for (entry e : final_pass_) {
             e.retries = 0;
