@@ -93,9 +93,7 @@ struct morton {
     template <class Mesh>
     static std::vector<std::uint32_t> assign(const Mesh& m, unsigned parts,
                                              const std::vector<std::uint32_t>& weight) {
-        std::uint64_t total = 0;
-        for (std::uint32_t w : weight) total += w;
-        return cut(m, parts, total == 0 ? nullptr : &weight);
+        return cut(m, parts, &weight);
     }
 
 private:
@@ -171,7 +169,7 @@ private:
             for (std::size_t b = 0; b < buckets; ++b) before[b + 1] += sum[b];
         std::partial_sum(before.begin(), before.end(), before.begin());
         const std::uint64_t total = before.back();
-        if (weight && total == 0) return cut(m, parts, nullptr); // weight only on dead slots
+        if (weight && total == 0) return cut(m, parts, nullptr); // no live vertex weighs
 
         // The cuts' targets and the buckets they fall in (the first whose weight passes).
         std::vector<std::uint64_t> target(parts);

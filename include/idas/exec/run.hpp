@@ -154,7 +154,8 @@ public:
         else
             return victim.q.pop(e);
     }
-    /// Gives an entry to the serial pass that ends the run.
+    /// Sets an entry aside: for another phase on merged parts (retake_set_aside), or for
+    /// the serial pass that ends the run.
     void defer_to_final_pass(const entry& e) {
         tbb::spin_mutex::scoped_lock lk(final_mutex_);
         final_pass_.push_back(e);
