@@ -283,6 +283,124 @@ TEST_CASE("triangle insertion: the plane filters never contradict the exact sign
     CHECK(decided > samples / 3); // the filter still decides the clear cases
 }
 
+TEST_CASE("triangle insertion: homogeneous cut points agree with canonical rationals") {
+    // Cut points as the cutter makes them (three planes met by Cramer's rule, not reduced)
+    // against the same points reduced to canonical rationals, on every operation the
+    // cutter does with them. Tiny and huge scales, and planes through nearly equal points,
+    // give denominators of both signs and long integers.
+    namespace d = insertion::detail;
+    std::mt19937 rng(17);
+    std::uniform_real_distribution<double> u(-1, 1);
+    auto random_point = [&](double scale) { return vec3{u(rng), u(rng), u(rng)} * scale; };
+    auto reference_average = [](const rational_point& a, const rational_point& b, int wa, int wb) {
+        rational_point r;
+        for (int k = 0; k < 3; ++k) r[k] = (wa * a[k] + wb * b[k]) / (wa + wb);
+        return r;
+    };
+    int checked = 0, doubles = 0;
+    std::vector<std::pair<d::homogeneous_point, rational_point>> points;
+    for (int i = 0; i < 400; ++i) {
+        const double scale = std::pow(10.0, -30 + 10 * (i % 7)); // 1e-30 .. 1e30
+        std::array<d::exact_plane, 3> planes;
+        for (auto& pl : planes) {
+            const vec3 a = random_point(scale);
+            // Every fourth plane through a point that is a double (the crossing is one).
+            const vec3 b = i % 4 == 0 ? a + vec3{scale, 0, 0} : random_point(scale);
+            const vec3 c = i % 4 == 0 ? a + vec3{0, scale, 0} : random_point(scale);
+            pl = d::plane_through(a, b, c);
+            d::make_exact(pl);
+        }
+        if (i % 4 == 0) {
+            const vec3 a = random_point(scale);
+            planes[0] = d::plane_through(a, a + vec3{scale, 0, 0}, a + vec3{0, scale, 0});
+            planes[1] = d::plane_through(a, a + vec3{0, scale, 0}, a + vec3{0, 0, scale});
+            planes[2] = d::plane_through(a, a + vec3{0, 0, scale}, a + vec3{scale, 0, 0});
+            for (auto& pl : planes) pl.has_exact = false, d::make_exact(pl);
+        }
+        // Cramer's rule, as tet_cutter::meet.
+        const auto c0 = d::cross(planes[1].n, planes[2].n), c1 = d::cross(planes[2].n, planes[0].n),
+                   c2 = d::cross(planes[0].n, planes[1].n);
+        d::homogeneous_point h;
+        h.W = d::dot(planes[0].n, c0);
+        if (sgn(h.W) == 0) continue;
+        for (std::size_t k = 0; k < 3; ++k)
+            h.X[k] = planes[0].off * c0[k] + planes[1].off * c1[k] + planes[2].off * c2[k];
+        if (i % 2) { // the same point with a negative, unreduced denominator
+            for (auto& x : h.X) x *= -3;
+            h.W *= -3;
+        }
+        const rational_point q = d::canonical(h);
+        CAPTURE(i);
+        // On the three planes, exactly.
+        for (const auto& pl : planes) {
+            mpz_class N, D, scratch;
+            CHECK(d::plane_sign(pl, h, scratch) == 0);
+            d::plane_value(pl, q, N, D);
+            CHECK(sgn(N) == 0);
+        }
+        // Rounding and the test for doubles.
+        const vec3 approx = d::to_vec3(h);
+        CHECK(approx == to_vec3(q));
+        bool is_double = true;
+        for (int k = 0; k < 3; ++k) {
+            double x = 0;
+            const bool exact = idas::detail::predicates::exact_double(q[k], x);
+            CHECK(d::equals_double(h.X[std::size_t(k)], h.W, approx[k]) == exact);
+            is_double = is_double && exact;
+        }
+        doubles += is_double;
+        // A double point's homogeneous form is exact.
+        CHECK(d::canonical(d::to_homogeneous(approx)) == to_rational(approx));
+        points.emplace_back(h, q);
+        ++checked;
+    }
+    CHECK(checked > 300);
+    CHECK(doubles > 0); // the planes through shared axis-aligned corners meet in doubles
+    CHECK(doubles < checked);
+    for (std::size_t i = 0; i + 3 < points.size(); ++i) {
+        const auto& [a, qa] = points[i];
+        const auto& [b, qb] = points[i + 1];
+        const auto& [c, qc] = points[i + 2];
+        const auto& [e, qe] = points[i + 3];
+        CAPTURE(i);
+        for (int k = 0; k < 3; ++k)
+            CHECK(d::compare_coordinate(a, b, k) == sgn(mpq_class(qa[k] - qb[k])));
+        CHECK(d::same_point(a, a));
+        CHECK(d::same_point(a, qa));
+        CHECK(d::same_point(a, b) == (qa == qb));
+        CHECK(d::orient_exact(a, b, c, e) ==
+              idas::detail::predicates::orient3d_rational_mpz(qa, qb, qc, qe));
+        CHECK(d::canonical(d::average({&a, &b}, {2, 1})) == reference_average(qa, qb, 2, 1));
+        // A positive multiple of b - a: the same signs, and parallel.
+        d::int_vector row;
+        d::difference_row(b, a, row);
+        for (int k = 0; k < 3; ++k)
+            CHECK(sgn(row[std::size_t(k)]) == sgn(mpq_class(qb[k] - qa[k])));
+        const mpq_class ratio = mpq_class(row[0]) / (qb[0] - qa[0]);
+        for (int k = 1; k < 3; ++k)
+            if (qb[k] != qa[k]) CHECK(mpq_class(row[std::size_t(k)]) / (qb[k] - qa[k]) == ratio);
+    }
+}
+
+TEST_CASE("rational: to_double of unreduced fractions with either sign of denominator") {
+    std::mt19937_64 rng(5);
+    for (int i = 0; i < 2000; ++i) {
+        mpz_class num = mpz_class(rng() >> (i % 60)) - mpz_class(rng() >> (i % 50));
+        mpz_class den = mpz_class(rng() >> (i % 63)) + 1;
+        num <<= (i % 5) * 200; // magnitudes up to 2^800 and down to 2^-800
+        den <<= (i % 7) * 150;
+        const mpz_class common = mpz_class(rng() % 1000) + 1;
+        const mpq_class q(num, den);
+        mpq_class reduced = q;
+        reduced.canonicalize();
+        const double want = to_double(reduced);
+        CAPTURE(i);
+        CHECK(to_double(mpz_class(num * common), mpz_class(den * common)) == want);
+        CHECK(to_double(mpz_class(-num * common), mpz_class(-den * common)) == want);
+        CHECK(to_double(mpz_class(num), mpz_class(-den)) == -want);
+    }
+}
+
 TEST_CASE("triangle insertion: needle triangles crossing ordinary ones are covered exactly") {
     // With the former filters (margins relative to the computed normals), seeds 4, 6 and 8
     // stopped with "a cone made a flat tet".

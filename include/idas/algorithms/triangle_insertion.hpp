@@ -97,7 +97,10 @@ struct exact_plane {
     mpz_class off;
     bool has_exact = false;
     bool by_points = false;
+    /// by_points: the three points; otherwise the first `points_on` of them lie on the
+    /// plane (an edge plane's edge ends), a zero known without arithmetic.
     std::array<vec3, 3> p{};
+    std::uint8_t points_on = 0;
     // In doubles, for the floating-point filter: the normal (each component within
     // normal_error of the exact one, up to the positive scale of n) and a double point
     // on the plane.
@@ -205,6 +208,155 @@ inline void plane_value(const exact_plane& pl, const rational_point& x, mpz_clas
     N -= pl.off * D;
 }
 
+/// An exact point in homogeneous integers, (X, Y, Z) / W with W != 0, not reduced. A
+/// cut point comes from three integer planes by Cramer's rule, so its integers are
+/// bounded by the planes' sizes without a gcd (reducing them cost 13% of the insertion
+/// on 37989_sf), and a plane's value at it is n . X - off W: four products, where a
+/// canonical rational point needs twelve on integers three times as long.
+struct homogeneous_point {
+    int_vector X;
+    mpz_class W;
+};
+
+/// The double point p exactly: X = p 2^s, W = 2^s with the least s >= 0 that makes X
+/// integer.
+inline homogeneous_point to_homogeneous(const vec3& p) {
+    homogeneous_point h;
+    int low = 0; // the lowest bit of any coordinate, as an exponent (capped at 2^0)
+    for (int k = 0; k < 3; ++k)
+        if (p[k] != 0) {
+            int e = 0;
+            std::frexp(p[k], &e); // p = m 2^e, 0.5 <= |m| < 1: bits down to 2^(e - 53)
+            low = std::min(low, e - 53);
+        }
+    for (int k = 0; k < 3; ++k) {
+        if (p[k] == 0) continue;
+        int e = 0;
+        const double m = std::frexp(p[k], &e);
+        mpz_set_d(h.X[std::size_t(k)].get_mpz_t(), std::ldexp(m, 53)); // an integer < 2^53
+        mpz_mul_2exp(h.X[std::size_t(k)].get_mpz_t(), h.X[std::size_t(k)].get_mpz_t(),
+                     mp_bitcnt_t(e - 53 - low));
+    }
+    h.W = 1;
+    mpz_mul_2exp(h.W.get_mpz_t(), h.W.get_mpz_t(), mp_bitcnt_t(-low));
+    return h;
+}
+
+/// Reduced to a canonical rational point (a gcd per coordinate).
+inline rational_point canonical(const homogeneous_point& h) {
+    rational_point q;
+    for (int k = 0; k < 3; ++k) {
+        mpz_set(q[k].get_num_mpz_t(), h.X[std::size_t(k)].get_mpz_t());
+        mpz_set(q[k].get_den_mpz_t(), h.W.get_mpz_t());
+        q[k].canonicalize(); // also makes the denominator positive
+    }
+    return q;
+}
+
+/// Nearest doubles, coordinate by coordinate.
+inline vec3 to_vec3(const homogeneous_point& h) {
+    return {to_double(h.X[0], h.W), to_double(h.X[1], h.W), to_double(h.X[2], h.W)};
+}
+
+/// X_k / W == x, exactly (x finite).
+inline bool equals_double(const mpz_class& X, const mpz_class& W, double x) {
+    if (x == 0) return sgn(X) == 0;
+    thread_local mpz_class lhs, rhs;
+    int e = 0;
+    const double m = std::frexp(x, &e);
+    e -= 53; // x = M 2^e with the integer M = m 2^53
+    mpz_set_d(rhs.get_mpz_t(), std::ldexp(m, 53));
+    mpz_mul(rhs.get_mpz_t(), rhs.get_mpz_t(), W.get_mpz_t());
+    if (e >= 0) {
+        mpz_mul_2exp(rhs.get_mpz_t(), rhs.get_mpz_t(), mp_bitcnt_t(e));
+        return mpz_cmp(X.get_mpz_t(), rhs.get_mpz_t()) == 0;
+    }
+    mpz_mul_2exp(lhs.get_mpz_t(), X.get_mpz_t(), mp_bitcnt_t(-e));
+    return mpz_cmp(lhs.get_mpz_t(), rhs.get_mpz_t()) == 0;
+}
+
+/// Sign of X_k / W_a - Y_k / W_b for coordinate k of points a and b.
+inline int compare_coordinate(const homogeneous_point& a, const homogeneous_point& b, int k) {
+    thread_local mpz_class t;
+    mpz_mul(t.get_mpz_t(), a.X[std::size_t(k)].get_mpz_t(), b.W.get_mpz_t());
+    mpz_submul(t.get_mpz_t(), b.X[std::size_t(k)].get_mpz_t(), a.W.get_mpz_t());
+    return sgn(t) * sgn(a.W) * sgn(b.W);
+}
+
+inline bool same_point(const homogeneous_point& a, const homogeneous_point& b) {
+    for (int k = 0; k < 3; ++k)
+        if (compare_coordinate(a, b, k) != 0) return false;
+    return true;
+}
+
+/// Same position as the canonical rational point q.
+inline bool same_point(const homogeneous_point& a, const rational_point& q) {
+    thread_local mpz_class l, r;
+    for (std::size_t k = 0; k < 3; ++k) {
+        mpz_mul(l.get_mpz_t(), a.X[k].get_mpz_t(), q[int(k)].get_den_mpz_t());
+        mpz_mul(r.get_mpz_t(), q[int(k)].get_num_mpz_t(), a.W.get_mpz_t());
+        if (mpz_cmp(l.get_mpz_t(), r.get_mpz_t()) != 0) return false;
+    }
+    return true;
+}
+
+/// An integer row that is a positive multiple of b - a: X_b W_a - X_a W_b, times the
+/// sign of W_a W_b.
+inline void difference_row(const homogeneous_point& b, const homogeneous_point& a,
+                           int_vector& row) {
+    const bool flip = sgn(a.W) * sgn(b.W) < 0;
+    for (std::size_t k = 0; k < 3; ++k) {
+        mpz_mul(row[k].get_mpz_t(), b.X[k].get_mpz_t(), a.W.get_mpz_t());
+        mpz_submul(row[k].get_mpz_t(), a.X[k].get_mpz_t(), b.W.get_mpz_t());
+        if (flip) mpz_neg(row[k].get_mpz_t(), row[k].get_mpz_t());
+    }
+}
+
+/// Sign of plane pl at x (scratch: an integer that keeps its storage).
+inline int plane_sign(const exact_plane& pl, const homogeneous_point& x, mpz_class& scratch) {
+    mpz_ptr v = scratch.get_mpz_t();
+    mpz_mul(v, pl.n[0].get_mpz_t(), x.X[0].get_mpz_t());
+    mpz_addmul(v, pl.n[1].get_mpz_t(), x.X[1].get_mpz_t());
+    mpz_addmul(v, pl.n[2].get_mpz_t(), x.X[2].get_mpz_t());
+    mpz_submul(v, pl.off.get_mpz_t(), x.W.get_mpz_t());
+    return sgn(scratch) * sgn(x.W);
+}
+
+/// orient3d of four exact points (rows of positive multiples of b - a, c - a, d - a).
+inline int orient_exact(const homogeneous_point& a, const homogeneous_point& b,
+                        const homogeneous_point& c, const homogeneous_point& d) {
+    thread_local std::array<int_vector, 3> rows;
+    thread_local int_vector vw;
+    thread_local mpz_class det;
+    difference_row(b, a, rows[0]), difference_row(c, a, rows[1]), difference_row(d, a, rows[2]);
+    cross_into(vw, rows[1], rows[2]);
+    mpz_mul(det.get_mpz_t(), rows[0][0].get_mpz_t(), vw[0].get_mpz_t());
+    mpz_addmul(det.get_mpz_t(), rows[0][1].get_mpz_t(), vw[1].get_mpz_t());
+    mpz_addmul(det.get_mpz_t(), rows[0][2].get_mpz_t(), vw[2].get_mpz_t());
+    return sgn(det);
+}
+
+/// sum_i w_i p_i / sum_i w_i, over the common denominator of the points.
+inline homogeneous_point average(std::initializer_list<const homogeneous_point*> ps,
+                                 std::initializer_list<int> weights) {
+    homogeneous_point r;
+    r.W = 1;
+    int total = 0;
+    for (int w : weights) total += w;
+    auto wi = weights.begin();
+    for (const homogeneous_point* p : ps) {
+        // r / W_r + w p: r X times W_p, plus w X_p times W_r, over W_r W_p.
+        for (std::size_t k = 0; k < 3; ++k) {
+            r.X[k] *= p->W;
+            r.X[k] += *wi * p->X[k] * r.W;
+        }
+        r.W *= p->W;
+        ++wi;
+    }
+    r.W *= total;
+    return r;
+}
+
 constexpr double unit_roundoff = 0x1p-53;
 
 inline double max_abs(const vec3& v) {
@@ -279,15 +431,10 @@ inline std::array<exact_plane, 3> edge_planes(const std::array<vec3, 3>& tri) {
         std::tie(pl.normal, pl.normal_error) =
             approximate_edge_normal(tri[e], tri[f], n_approx, n_error);
         pl.anchor = tri[e];
+        pl.p = {tri[e], tri[f], tri[f]};
+        pl.points_on = 2;
     }
     return out;
-}
-
-/// Total order on exact points (x, then y, then z): the canonical "smallest corner".
-inline bool lex_less(const rational_point& a, const rational_point& b) {
-    if (int c = cmp(a.x, b.x)) return c < 0;
-    if (int c = cmp(a.y, b.y)) return c < 0;
-    return cmp(a.z, b.z) < 0;
 }
 
 // ---- candidate pairs (triangle, tet) --------------------------------------------------------
@@ -317,6 +464,25 @@ inline bool boxes_overlap(const vec3& a, const vec3& b, const vec3& c,
 ///   only when that is not conclusive.
 enum class meeting : std::uint8_t { misses, touches, with_area };
 
+/// An input triangle's plane and the planes through its edges perpendicular to it,
+/// exact, built once per triangle.
+struct triangle_planes {
+    exact_plane plane;
+    std::array<exact_plane, 3> edges;
+};
+
+/// The value of plane pl at x as N / D, D > 0: a positive multiple of n . x - off.
+inline void plane_value(const exact_plane& pl, const homogeneous_point& x, mpz_class& N,
+                        mpz_class& D) {
+    mpz_ptr v = N.get_mpz_t();
+    mpz_mul(v, pl.n[0].get_mpz_t(), x.X[0].get_mpz_t());
+    mpz_addmul(v, pl.n[1].get_mpz_t(), x.X[1].get_mpz_t());
+    mpz_addmul(v, pl.n[2].get_mpz_t(), x.X[2].get_mpz_t());
+    mpz_submul(v, pl.off.get_mpz_t(), x.W.get_mpz_t());
+    D = x.W;
+    if (sgn(D) < 0) N = -N, D = -D;
+}
+
 /// A triangle's normal and the normals of the planes through its edges perpendicular to
 /// it, in doubles with their error bounds: the same for every tet a walk visits.
 struct triangle_normals {
@@ -332,9 +498,11 @@ struct triangle_normals {
 };
 
 /// `shares_corner`: a corner of the triangle is a corner of the tet, so they meet.
+/// `exact`: the triangle's exact planes, for the cases the filters cannot decide.
 inline meeting how_triangle_meets(const vec3& a, const vec3& b, const vec3& c,
-                                  const triangle_normals& normals, const std::array<vec3, 4>& p,
-                                  const std::array<int, 4>& s, bool shares_corner) {
+                                  const triangle_normals& normals, const triangle_planes& exact,
+                                  const std::array<vec3, 4>& p, const std::array<int, 4>& s,
+                                  bool shares_corner) {
     int pos = 0, neg = 0, zero = 0;
     for (int i = 0; i < 4; ++i) pos += s[i] > 0, neg += s[i] < 0, zero += s[i] == 0;
     if (pos == 4 || neg == 4) return meeting::misses;
@@ -390,16 +558,12 @@ inline meeting how_triangle_meets(const vec3& a, const vec3& b, const vec3& c,
     for (int i = 0; i < 4; ++i)
         for (int j = i + 1; j < 4; ++j)
             if (s[i] * s[j] < 0) sec[ns++] = {i, j};
-    // Exact planes, built only when the filters cannot decide.
-    std::optional<exact_plane> plane;
-    std::optional<std::array<exact_plane, 3>> edge_plane;
     mpz_class Nfu, Dfu, Nfv, Dfv, Ngu, Dgu, Ngv, Dgv;
     for (std::size_t e = 0; e < 3; ++e) {
         const vec3 &e0 = tri[e], &e1 = tri[(e + 1) % 3];
         const auto& [m, m_error] = normals.edge[e];
-        auto edge_value = [&](const vec3& x, mpz_class& N, mpz_class& D) {
-            if (!edge_plane) edge_plane = edge_planes(tri);
-            plane_value((*edge_plane)[e], to_rational(x), N, D);
+        auto edge_value = [&](const homogeneous_point& x, mpz_class& N, mpz_class& D) {
+            plane_value(exact.edges[e], x, N, D);
         };
         // Sign of the edge plane at section corner k.
         auto side = [&](const corner& k) {
@@ -410,7 +574,7 @@ inline meeting how_triangle_meets(const vec3& a, const vec3& b, const vec3& c,
                 const double val = dot(m, d), tol = filter_bound(m, m_error, d, 0);
                 if (val > tol) return 1;
                 if (val < -tol) return -1;
-                edge_value(x, Ngu, Dgu);
+                edge_value(to_homogeneous(x), Ngu, Dgu);
                 return sgn(Ngu);
             }
             // The crossing x = u + t (v - u), t = fu / (fu - fv), of the triangle's plane
@@ -435,15 +599,11 @@ inline meeting how_triangle_meets(const vec3& a, const vec3& b, const vec3& c,
             }
             // Exactly: the edge plane's value at x has the sign of
             // (fu gv - fv gu) / (fu - fv), with g the edge plane's values at u and v.
-            if (!plane) {
-                plane = plane_through(a, b, c);
-                make_exact(*plane);
-            }
-            const rational_point U = to_rational(u), V = to_rational(v);
-            plane_value(*plane, U, Nfu, Dfu);
-            plane_value(*plane, V, Nfv, Dfv);
-            edge_value(u, Ngu, Dgu);
-            edge_value(v, Ngv, Dgv);
+            const homogeneous_point U = to_homogeneous(u), V = to_homogeneous(v);
+            plane_value(exact.plane, U, Nfu, Dfu);
+            plane_value(exact.plane, V, Nfv, Dfv);
+            edge_value(U, Ngu, Dgu);
+            edge_value(V, Ngv, Dgv);
             const mpz_class lhs = Nfu * Ngv * Dfv * Dgu, rhs = Nfv * Ngu * Dfu * Dgv;
             return sgn(mpz_class(lhs - rhs)) * sgn(mpz_class(Nfu * Dfv - Nfv * Dfu));
         };
@@ -515,16 +675,21 @@ struct cutting_planes {
     std::vector<index_t> group_first, tri_first, group_tris;
     /// Per input triangle: its plane and the planes through its edges, exact, built once
     /// for every tet that the triangle cuts.
-    struct triangle_planes {
-        exact_plane plane;
-        std::array<exact_plane, 3> edges;
-    };
     std::vector<triangle_planes> planes;
 };
 
 inline cutting_planes find_cutting_planes(const insertion_input& in, const tet_adjacency& adj) {
     const auto& V = in.vertices;
     const std::size_t m = in.tets.size();
+    // Exact planes first: the walk needs them where its filters cannot decide.
+    std::vector<triangle_planes> planes(in.triangles.size());
+    tbb::parallel_for(std::size_t{0}, in.triangles.size(), [&](std::size_t t) {
+        const auto& tri = in.triangles[t];
+        auto& tp = planes[t];
+        tp.plane = plane_through(V[tri[0]], V[tri[1]], V[tri[2]]);
+        make_exact(tp.plane);
+        tp.edges = edge_planes({V[tri[0]], V[tri[1]], V[tri[2]]});
+    });
     struct local {
         std::vector<std::uint32_t> stamp;
         // A vertex's side of the current triangle's plane, valid where side_stamp is the
@@ -570,7 +735,8 @@ inline cutting_planes find_cutting_planes(const insertion_input& in, const tet_a
                     const bool shares_corner = tet_local::contains(tv, tri[0]) ||
                                                tet_local::contains(tv, tri[1]) ||
                                                tet_local::contains(tv, tri[2]);
-                    const meeting how = how_triangle_meets(a, b, c, normals, p, s, shares_corner);
+                    const meeting how =
+                        how_triangle_meets(a, b, c, normals, planes[ti], p, s, shares_corner);
                     if (how == meeting::misses) return;
                     L.queue.push_back(t);
                     if (how == meeting::with_area) L.pairs.emplace_back(t, index_t(ti));
@@ -616,14 +782,7 @@ inline cutting_planes find_cutting_planes(const insertion_input& in, const tet_a
         }
         cp.group_first[t + 1] = cp.group_first[t] + index_t(groups.size());
     }
-    cp.planes.resize(in.triangles.size());
-    tbb::parallel_for(std::size_t{0}, in.triangles.size(), [&](std::size_t t) {
-        const auto& tri = in.triangles[t];
-        auto& tp = cp.planes[t];
-        tp.plane = plane_through(V[tri[0]], V[tri[1]], V[tri[2]]);
-        make_exact(tp.plane);
-        tp.edges = edge_planes({V[tri[0]], V[tri[1]], V[tri[2]]});
-    });
+    cp.planes = std::move(planes);
     return cp;
 }
 
@@ -659,10 +818,30 @@ inline int orientation_from_doubles(const std::array<vec3, 4>& p,
 // ---- cutting one tet -----------------------------------------------------------------------
 
 struct point {
-    rational_point q;
     vec3 approx;            ///< nearest doubles
-    bool is_double = true;  ///< approx is q exactly
+    bool is_double = true;  ///< approx is the point exactly
     std::uint8_t faces = 0; ///< bit f: lies on the tet's face f (opposite local vertex f)
+
+    /// The exact position. A point on doubles builds it on first use only: most never
+    /// need it. Not thread-safe on a double point: each cutter reads only its own
+    /// points' positions.
+    const homogeneous_point& h() const {
+        if (!exact) exact.emplace(to_homogeneous(approx));
+        return *exact;
+    }
+    /// A copy for another cutter: a double point's position is left to be built there.
+    point handed_on(std::uint8_t on_faces) const {
+        point r{approx, is_double, on_faces, {}};
+        if (!is_double) r.exact = exact;
+        return r;
+    }
+    /// Same position, comparing exact positions only where the doubles are equal.
+    bool same_position(const point& o) const {
+        return approx == o.approx && is_double == o.is_double &&
+               (is_double || same_point(*exact, *o.exact));
+    }
+
+    mutable std::optional<homogeneous_point> exact; ///< always set when !is_double
 };
 
 /// A convex polygon: corners in cyclic order; support >= 0 is a plane of the tet's
@@ -694,13 +873,15 @@ struct tet_output {
 };
 
 inline point make_point(const vec3& p, std::uint8_t faces) {
-    return {to_rational(p), p, true, faces};
+    return {p, true, faces, {}};
 }
-inline point make_point(rational_point q, std::uint8_t faces) {
+inline point make_point(homogeneous_point q, std::uint8_t faces) {
     point r;
     r.approx = to_vec3(q);
-    r.is_double = to_rational(r.approx) == q;
-    r.q = std::move(q);
+    r.is_double = true;
+    for (std::size_t k = 0; k < 3 && r.is_double; ++k)
+        r.is_double = equals_double(q.X[k], q.W, r.approx[int(k)]);
+    r.exact.emplace(std::move(q));
     r.faces = faces;
     return r;
 }
@@ -745,7 +926,8 @@ public:
         for (std::size_t i = 4; i < pts_.size(); ++i) {
             const int bits = std::popcount(unsigned(pts_[i].faces));
             if (bits == 1)
-                out.push_back({std::int8_t(std::countr_zero(unsigned(pts_[i].faces))), pts_[i]});
+                out.push_back({std::int8_t(std::countr_zero(unsigned(pts_[i].faces))),
+                               pts_[i].handed_on(pts_[i].faces)});
             if (bits == 2) {
                 // On the edge shared by the two faces: the corners not opposite them.
                 std::array<std::uint8_t, 2> e{};
@@ -753,7 +935,8 @@ public:
                 for (std::uint8_t v = 0; v < 4; ++v)
                     if (pts_[i].faces & (1u << v)) e[k++] = v;
                 const auto ends = tet_local::edge_complement(tet_local::edge_of[e[0]][e[1]]);
-                out.push_back({std::int8_t(-1 - tet_local::edge_of[ends[0]][ends[1]]), pts_[i]});
+                out.push_back({std::int8_t(-1 - tet_local::edge_of[ends[0]][ends[1]]),
+                               pts_[i].handed_on(pts_[i].faces)});
             }
         }
         return out;
@@ -763,8 +946,8 @@ public:
     void import(const point& x, std::uint8_t faces) {
         // Equal points have equal nearest doubles: GMP only compares those.
         for (const point& p : pts_)
-            if (p.faces == faces && p.approx == x.approx && p.q == x.q) return;
-        pts_.push_back({x.q, x.approx, x.is_double, faces});
+            if (p.faces == faces && p.same_position(x)) return;
+        pts_.push_back(x.handed_on(faces));
     }
     static std::uint8_t edge_faces(std::uint8_t local_edge) {
         const auto& e = tet_local::edge_vertices[local_edge];
@@ -795,7 +978,7 @@ private:
     std::vector<const exact_plane*> planes_; // every one exact
     std::array<exact_plane, 4> face_planes_;
     std::vector<std::vector<std::int8_t>> signs_; // per plane, per point; 2 = unknown
-    mpz_class num_, den_;                         // scratch for exact_sign
+    mpz_class num_;                               // scratch for exact_sign
     std::unordered_map<std::uint64_t, std::uint32_t> plane_ids_;   // 4 * triangle + (0 | edge + 1)
     std::unordered_map<std::uint64_t, std::uint32_t> edge_points_; // (a, b, plane)
     std::vector<std::pair<index_t, std::uint32_t>> group_plane_;
@@ -810,6 +993,8 @@ private:
     };
     std::map<std::vector<std::uint32_t>, triangulation> triangulations_;
     std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> side_points_;
+    std::vector<std::uint32_t> lines_; // scratch of lines_for()
+    std::vector<polygon> next_parts_;  // scratch of split_facet()
 
     std::uint32_t add_plane(std::uint64_t key, const exact_plane& pl) {
         auto [it, fresh] = plane_ids_.try_emplace(key, std::uint32_t(planes_.size()));
@@ -826,9 +1011,8 @@ private:
     }
 
     /// Sign of plane k at x, exactly.
-    int exact_sign(std::uint32_t k, const rational_point& x) {
-        plane_value(*planes_[k], x, num_, den_);
-        return sgn(num_);
+    int exact_sign(std::uint32_t k, const homogeneous_point& x) {
+        return plane_sign(*planes_[k], x, num_);
     }
 
     int sign(std::uint32_t p, std::uint32_t k) {
@@ -840,6 +1024,9 @@ private:
         int r;
         if (pl.by_points && x.is_double) {
             r = o3d(pl.p[0], pl.p[1], pl.p[2], x.approx);
+        } else if (x.is_double && pl.points_on > 0 &&
+                   (x.approx == pl.p[0] || x.approx == pl.p[1])) {
+            r = 0; // the edge planes' edge ends (a neighbour triangle's corners)
         } else {
             // Floating-point filter, then GMP. x.approx is the nearest double of x.
             const vec3 d = x.approx - pl.anchor;
@@ -850,7 +1037,7 @@ private:
             else if (val < -tol)
                 r = -1;
             else
-                r = exact_sign(k, x.q);
+                r = exact_sign(k, x.h());
         }
         s[p] = std::int8_t(r);
         return r;
@@ -902,24 +1089,21 @@ private:
     /// The point where planes p, q and r meet, by Cramer's rule. Its integers are bounded
     /// by the planes' sizes; a point cut from a segment between two cut points has factors
     /// of both in it, over a thousand bits on 100071_sf, that only a long gcd removes.
-    rational_point meet(std::uint32_t p, std::uint32_t q, std::uint32_t r) {
+    homogeneous_point meet(std::uint32_t p, std::uint32_t q, std::uint32_t r) {
         const exact_plane &P = *planes_[p], &Q = *planes_[q], &R = *planes_[r];
         // Scratch integers kept per thread (1-5% faster than fresh ones on bunny and
         // 100071_sf): a cut tet meets planes a few dozen times.
         thread_local std::array<int_vector, 3> c; // Q x R, R x P, P x Q
-        thread_local mpz_class det;
         cross_into(c[0], Q.n, R.n), cross_into(c[1], R.n, P.n), cross_into(c[2], P.n, Q.n);
-        mpz_mul(det.get_mpz_t(), P.n[0].get_mpz_t(), c[0][0].get_mpz_t());
-        mpz_addmul(det.get_mpz_t(), P.n[1].get_mpz_t(), c[0][1].get_mpz_t());
-        mpz_addmul(det.get_mpz_t(), P.n[2].get_mpz_t(), c[0][2].get_mpz_t());
-        rational_point x;
+        homogeneous_point x;
+        mpz_mul(x.W.get_mpz_t(), P.n[0].get_mpz_t(), c[0][0].get_mpz_t());
+        mpz_addmul(x.W.get_mpz_t(), P.n[1].get_mpz_t(), c[0][1].get_mpz_t());
+        mpz_addmul(x.W.get_mpz_t(), P.n[2].get_mpz_t(), c[0][2].get_mpz_t());
         for (std::size_t i = 0; i < 3; ++i) {
-            mpz_ptr num = x[int(i)].get_num_mpz_t();
+            mpz_ptr num = x.X[i].get_mpz_t();
             mpz_mul(num, P.off.get_mpz_t(), c[0][i].get_mpz_t());
             mpz_addmul(num, Q.off.get_mpz_t(), c[1][i].get_mpz_t());
             mpz_addmul(num, R.off.get_mpz_t(), c[2][i].get_mpz_t());
-            mpz_set(x[int(i)].get_den_mpz_t(), det.get_mpz_t());
-            x[int(i)].canonicalize(); // also makes the denominator positive
         }
         return x;
     }
@@ -930,27 +1114,23 @@ private:
         const std::uint64_t key =
             (std::uint64_t(std::min(a, b)) << 42) | (std::uint64_t(std::max(a, b)) << 20) | k;
         if (auto it = edge_points_.find(key); it != edge_points_.end()) return it->second;
-        rational_point x;
+        homogeneous_point x;
         if (const auto line = line_through(a, b)) {
             x = meet((*line)[0], (*line)[1], k);
         } else {
             // Not reached on the meshes of data/ (every segment's line was known), kept so
             // that a point on more planes than the cut recorded still gets its crossing.
-            // x = (fa B - fb A) / (fa - fb) with the plane's values fa = Na / Da, fb = Nb / Db,
-            // in integers, and one gcd per coordinate at the end.
-            const rational_point &A = pts_[a].q, &B = pts_[b].q;
+            // x = (fa B - fb A) / (fa - fb), where the plane's value at A = X_A / W_A is
+            // fa = Na / W_A with Na = n . X_A - off W_A (fb likewise): over W_A W_B,
+            // x = (Na X_B - Nb X_A) / (Na W_B - Nb W_A).
+            const homogeneous_point &A = pts_[a].h(), &B = pts_[b].h();
             const exact_plane& pl = *planes_[k];
-            mpz_class Na, Da, Nb, Db;
-            plane_value(pl, A, Na, Da);
-            plane_value(pl, B, Nb, Db);
-            const mpz_class alpha = Na * Db, beta = Nb * Da, gap = alpha - beta;
-            for (int i = 0; i < 3; ++i) {
-                const mpz_class &an = A[i].get_num(), &ad = A[i].get_den(), &bn = B[i].get_num(),
-                                &bd = B[i].get_den();
-                x[i].get_num() = alpha * bn * ad - beta * an * bd;
-                x[i].get_den() = gap * ad * bd;
-                x[i].canonicalize(); // also makes the denominator positive
-            }
+            const mpz_class Na =
+                pl.n[0] * A.X[0] + pl.n[1] * A.X[1] + pl.n[2] * A.X[2] - pl.off * A.W;
+            const mpz_class Nb =
+                pl.n[0] * B.X[0] + pl.n[1] * B.X[1] + pl.n[2] * B.X[2] - pl.off * B.W;
+            for (std::size_t i = 0; i < 3; ++i) x.X[i] = Na * B.X[i] - Nb * A.X[i];
+            x.W = Na * B.W - Nb * A.W;
         }
         const std::uint32_t id = std::uint32_t(pts_.size());
         pts_.push_back(make_point(std::move(x), std::uint8_t(pts_[a].faces & pts_[b].faces)));
@@ -1006,12 +1186,14 @@ private:
         });
         std::iter_swap(v.begin(), first);
         const point& O = pts_[v[0]];
-        const rational_point& o = O.q;
         std::sort(v.begin() + 1, v.end(), [&](std::uint32_t a, std::uint32_t b) {
             const point &PA = pts_[a], &PB = pts_[b];
             if (const int s = cross_sign(O.approx, PA.approx, PB.approx, u, w)) return s > 0;
-            const auto &A = PA.q, &B = PB.q;
-            return sgn((A[u] - o[u]) * (B[w] - o[w]) - (A[w] - o[w]) * (B[u] - o[u])) > 0;
+            // Rows of positive multiples of A - O and B - O keep the sign.
+            thread_local int_vector ra, rb;
+            difference_row(PA.h(), O.h(), ra), difference_row(PB.h(), O.h(), rb);
+            return sgn(ra[std::size_t(u)] * rb[std::size_t(w)] -
+                       ra[std::size_t(w)] * rb[std::size_t(u)]) > 0;
         });
     }
 
@@ -1056,8 +1238,9 @@ private:
 
     /// The lines that split a facet, as planes crossing its plane: edge planes of the
     /// triangles on it; on a face of the tet, also the neighbour's cutting planes.
-    std::vector<std::uint32_t> lines_for(const polygon& f, std::vector<index_t>& on_plane) {
-        std::vector<std::uint32_t> lines;
+    const std::vector<std::uint32_t>& lines_for(const polygon& f, std::vector<index_t>& on_plane) {
+        std::vector<std::uint32_t>& lines = lines_;
+        lines.clear();
         auto add_edges = [&](index_t t) {
             on_plane.push_back(t);
             for (int e = 0; e < 3; ++e) lines.push_back(triangle_edge_plane(t, e));
@@ -1100,8 +1283,9 @@ private:
     }
 
     std::vector<polygon> split_facet(const polygon& f, std::vector<index_t>& on_plane) {
-        const std::vector<std::uint32_t> lines = lines_for(f, on_plane);
-        std::vector<polygon> parts{f}, next;
+        const std::vector<std::uint32_t>& lines = lines_for(f, on_plane);
+        std::vector<polygon> parts{f};
+        std::vector<polygon>& next = next_parts_;
         polygon pos, neg;
         for (std::uint32_t k : lines) {
             next.clear();
@@ -1152,8 +1336,8 @@ private:
                 const int lo_side = compare(W, A, axis), hi_side = compare(W, B, axis);
                 if (up ? !(lo_side > 0 && hi_side < 0) : !(lo_side < 0 && hi_side > 0)) continue;
                 if (surely_not_collinear(A.approx, B.approx, W.approx)) continue;
-                if (!d) idas::detail::predicates::rational_row(B.q, A.q, d.emplace());
-                idas::detail::predicates::rational_row(W.q, A.q, w_row);
+                if (!d) difference_row(B.h(), A.h(), d.emplace());
+                difference_row(W.h(), A.h(), w_row);
                 const int_vector& u = *d;
                 if (u[0] * w_row[1] != u[1] * w_row[0] || u[1] * w_row[2] != u[2] * w_row[1] ||
                     u[2] * w_row[0] != u[0] * w_row[2])
@@ -1173,7 +1357,7 @@ private:
     static int compare(const point& P, const point& Q, int k) {
         if (P.approx[k] != Q.approx[k]) return P.approx[k] < Q.approx[k] ? -1 : 1;
         if (P.is_double && Q.is_double) return 0;
-        return cmp(P.q[k], Q.q[k]);
+        return compare_coordinate(P.h(), Q.h(), k);
     }
 
     /// Sign of component (u, w) of the cross product (a - o) x (b - o) of three exact points,
@@ -1199,33 +1383,21 @@ private:
                cross_sign(a, b, w, 0, 1) != 0;
     }
 
-    std::uint32_t add_point(rational_point q, std::uint8_t faces) {
+    std::uint32_t add_point(homogeneous_point q, std::uint8_t faces) {
         pts_.push_back(make_point(std::move(q), faces));
         return std::uint32_t(pts_.size() - 1);
     }
 
-    static rational_point average(const std::vector<const rational_point*>& ps,
-                                  const std::vector<int>& weights) {
-        rational_point r{0, 0, 0};
-        int total = 0;
-        for (std::size_t i = 0; i < ps.size(); ++i) {
-            for (int k = 0; k < 3; ++k) r[k] += weights[i] * (*ps[i])[k];
-            total += weights[i];
-        }
-        for (int k = 0; k < 3; ++k) r[k] /= total;
-        return r;
-    }
-
-    rational_point inner_point(const triangulation& T) const {
+    homogeneous_point inner_point(const triangulation& T) const {
         const auto& c = T.inner_corners;
-        if (T.inner_is_midpoint) return average({&pts_[c[0]].q, &pts_[c[1]].q}, {1, 1});
-        return average({&pts_[c[0]].q, &pts_[c[1]].q, &pts_[c[2]].q}, {2, 1, 1});
+        if (T.inner_is_midpoint) return average({&pts_[c[0]].h(), &pts_[c[1]].h()}, {1, 1});
+        return average({&pts_[c[0]].h(), &pts_[c[1]].h(), &pts_[c[2]].h()}, {2, 1, 1});
     }
 
     /// True iff T's inner point is in the closed input triangle t (its edge planes),
     /// judged from doubles where the filter allows: approx is within x_error of it.
     bool inside_triangle(const triangulation& T, const vec3& approx, double x_error, index_t t,
-                         std::optional<rational_point>& exact) {
+                         std::optional<homogeneous_point>& exact) {
         for (int e = 0; e < 3; ++e) {
             const std::uint32_t k = triangle_edge_plane(t, e);
             const exact_plane& pl = *planes_[k];
@@ -1282,7 +1454,7 @@ private:
             const vec3 approx = T.inner_is_midpoint ? (a + b) * 0.5 : (a * 2.0 + b + c) * 0.25;
             const double error =
                 4.04 * unit_roundoff * std::max({max_abs(a), max_abs(b), max_abs(c)});
-            std::optional<rational_point> exact;
+            std::optional<homogeneous_point> exact;
             for (index_t t : on_plane)
                 if (inside_triangle(T, approx, error, t, exact)) T.tracked_by.push_back(t);
         }
@@ -1307,13 +1479,17 @@ private:
         return T;
     }
 
-    /// lex_less on two local points, on doubles when both are doubles.
+    /// Total order on exact points (x, then y, then z): the canonical "smallest corner".
+    /// On doubles when both are doubles; else compare() decides from the doubles too
+    /// unless they are equal.
     bool smaller(std::uint32_t a, std::uint32_t b) const {
         const point &A = pts_[a], &B = pts_[b];
         if (A.is_double && B.is_double)
             return std::tie(A.approx.x, A.approx.y, A.approx.z) <
                    std::tie(B.approx.x, B.approx.y, B.approx.z);
-        return lex_less(A.q, B.q);
+        for (int k = 0; k < 3; ++k)
+            if (const int c = compare(A, B, k)) return c < 0;
+        return false;
     }
 
     bool on_support(std::uint32_t x, std::int32_t support) {
@@ -1329,7 +1505,7 @@ private:
                 orientation_from_doubles({A.approx, B.approx, C.approx, D.approx},
                                          {A.is_double, B.is_double, C.is_double, D.is_double}))
             return s;
-        return idas::detail::predicates::orient3d_rational_mpz(A.q, B.q, C.q, D.q);
+        return orient_exact(A.h(), B.h(), C.h(), D.h());
     }
 
     void emit(std::uint32_t apex, const std::array<std::uint32_t, 3>& t, tet_output& out) const {
@@ -1370,8 +1546,8 @@ private:
         const std::uint32_t x = corners.front();
         for (const triangulation* T : parts)
             if (!on_support(x, T->support)) {
-                const rational_point inner = inner_point(*T);
-                const std::uint32_t s = add_point(average({&pts_[x].q, &inner}, {1, 1}), 0);
+                const homogeneous_point inner = inner_point(*T);
+                const std::uint32_t s = add_point(average({&pts_[x].h(), &inner}, {1, 1}), 0);
                 for (const triangulation* U : parts)
                     for (const auto& t : U->triangles) emit(s, t, out);
                 return;
@@ -1389,11 +1565,11 @@ public:
         auto& ids = by_approx_[key{p.approx.x, p.approx.y, p.approx.z}];
         for (index_t id : ids)
             if (p.is_double ? m_.is_exact_double(id)
-                            : (!m_.is_exact_double(id) && m_.exact.at(id) == p.q))
+                            : (!m_.is_exact_double(id) && same_point(*p.exact, m_.exact.at(id))))
                 return id;
         const index_t id = index_t(m_.vertices.size());
         m_.vertices.push_back(p.approx);
-        if (!p.is_double) m_.exact.emplace(id, p.q);
+        if (!p.is_double) m_.exact.emplace(id, canonical(*p.exact));
         ids.push_back(id);
         return id;
     }

@@ -76,25 +76,26 @@ inline bool exact_double(const mpq_class& q, double& out) noexcept {
 
 } // namespace detail::predicates
 
-/// Nearest double to q (IEEE round-half-to-even), including gradual underflow and
-/// overflow to +-infinity. (mpq_get_d truncates, so it is not used.)
-inline double to_double(const mpq_class& q) {
-    double exact = 0.0;
-    if (detail::predicates::exact_double(q, exact)) return exact;
-    const int s = sgn(q);
-    mpz_class n = abs(q.get_num());
-    mpz_class d = q.get_den(); // > 0
+/// Nearest double to num / den (IEEE round-half-to-even), including gradual underflow
+/// and overflow to +-infinity, for any den != 0: the fraction need not be reduced.
+/// Scratch integers are kept per thread, so no allocation once they are large enough.
+inline double to_double(const mpz_class& num, const mpz_class& den) {
+    const int s = sgn(num) * sgn(den);
+    if (s == 0) return 0.0;
+    thread_local mpz_class n, d, lhs, rhs, quo, rem;
+    mpz_abs(n.get_mpz_t(), num.get_mpz_t());
+    mpz_abs(d.get_mpz_t(), den.get_mpz_t());
 
     // e = floor(log2(n / d)): start from the bit-length difference, which is e or e + 1.
     long e = static_cast<long>(mpz_sizeinbase(n.get_mpz_t(), 2)) -
              static_cast<long>(mpz_sizeinbase(d.get_mpz_t(), 2));
-    {
-        mpz_class lhs = n, rhs = d; // compare n with d * 2^e
-        if (e >= 0)
-            mpz_mul_2exp(rhs.get_mpz_t(), rhs.get_mpz_t(), static_cast<mp_bitcnt_t>(e));
-        else
-            mpz_mul_2exp(lhs.get_mpz_t(), lhs.get_mpz_t(), static_cast<mp_bitcnt_t>(-e));
-        if (lhs < rhs) --e;
+    // compare n with d * 2^e
+    if (e >= 0) {
+        mpz_mul_2exp(rhs.get_mpz_t(), d.get_mpz_t(), static_cast<mp_bitcnt_t>(e));
+        if (mpz_cmp(n.get_mpz_t(), rhs.get_mpz_t()) < 0) --e;
+    } else {
+        mpz_mul_2exp(lhs.get_mpz_t(), n.get_mpz_t(), static_cast<mp_bitcnt_t>(-e));
+        if (mpz_cmp(lhs.get_mpz_t(), d.get_mpz_t()) < 0) --e;
     }
     if (e > std::numeric_limits<double>::max_exponent) // >= 2^1025: certainly overflows
         return s * std::numeric_limits<double>::infinity();
@@ -107,13 +108,21 @@ inline double to_double(const mpq_class& q) {
         mpz_mul_2exp(n.get_mpz_t(), n.get_mpz_t(), static_cast<mp_bitcnt_t>(-k));
     else
         mpz_mul_2exp(d.get_mpz_t(), d.get_mpz_t(), static_cast<mp_bitcnt_t>(k));
-    mpz_class quo, rem;
     mpz_tdiv_qr(quo.get_mpz_t(), rem.get_mpz_t(), n.get_mpz_t(), d.get_mpz_t());
-    rem <<= 1;
-    const int c = cmp(rem, d);
-    if (c > 0 || (c == 0 && mpz_odd_p(quo.get_mpz_t()))) ++quo;
-    const double m = quo.get_d();                  // quo <= 2^53: exact
+    mpz_mul_2exp(rem.get_mpz_t(), rem.get_mpz_t(), 1);
+    const int c = mpz_cmp(rem.get_mpz_t(), d.get_mpz_t());
+    if (c > 0 || (c == 0 && mpz_odd_p(quo.get_mpz_t())))
+        mpz_add_ui(quo.get_mpz_t(), quo.get_mpz_t(), 1);
+    const double m = mpz_get_d(quo.get_mpz_t());   // quo <= 2^53: exact
     return s * std::ldexp(m, static_cast<int>(k)); // exact, or overflow to infinity
+}
+
+/// Nearest double to q (IEEE round-half-to-even), including gradual underflow and
+/// overflow to +-infinity. (mpq_get_d truncates, so it is not used.)
+inline double to_double(const mpq_class& q) {
+    double exact = 0.0;
+    if (detail::predicates::exact_double(q, exact)) return exact;
+    return to_double(q.get_num(), q.get_den());
 }
 
 /// Rounds each coordinate to the nearest double.
