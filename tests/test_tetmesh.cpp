@@ -298,7 +298,7 @@ TEST_CASE("triangle insertion: homogeneous cut points agree with canonical ratio
         return r;
     };
     int checked = 0, doubles = 0;
-    std::vector<std::pair<d::homogeneous_point, rational_point>> points;
+    std::vector<std::pair<insertion::homogeneous_point, rational_point>> points;
     for (int i = 0; i < 400; ++i) {
         const double scale = std::pow(10.0, -30 + 10 * (i % 7)); // 1e-30 .. 1e30
         std::array<d::exact_plane, 3> planes;
@@ -320,7 +320,7 @@ TEST_CASE("triangle insertion: homogeneous cut points agree with canonical ratio
         // Cramer's rule, as tet_cutter::meet.
         const auto c0 = d::cross(planes[1].n, planes[2].n), c1 = d::cross(planes[2].n, planes[0].n),
                    c2 = d::cross(planes[0].n, planes[1].n);
-        d::homogeneous_point h;
+        insertion::homogeneous_point h;
         h.W = d::dot(planes[0].n, c0);
         if (sgn(h.W) == 0) continue;
         for (std::size_t k = 0; k < 3; ++k)

@@ -59,12 +59,27 @@ struct insertion_input {
     std::vector<tri_indices> triangles; ///< non-degenerate, corners in `vertices`
 };
 
+/// An exact point in homogeneous integers, (X, Y, Z) / W with W != 0, not reduced. A
+/// cut point comes from three integer planes by Cramer's rule, so its integers are
+/// bounded by the planes' sizes without a gcd (reducing them cost 13% of the insertion
+/// on 37989_sf), and a plane's value at it is n . X - off W: four products, where a
+/// canonical rational point needs twelve on integers three times as long.
+struct homogeneous_point {
+    std::array<mpz_class, 3> X;
+    mpz_class W;
+};
+
 /// The background mesh with every input triangle inserted.
 struct inserted_mesh {
     /// Nearest doubles of the vertex positions (exact for every vertex not in `exact`).
     std::vector<vec3> vertices;
-    /// Exact positions of the vertices whose coordinates are not doubles.
+    /// Exact positions of the vertices whose coordinates are not doubles, reduced.
     std::unordered_map<index_t, rational_point> exact;
+    /// The same for created vertices not reduced yet, as the insertion made them:
+    /// round_vertices() rounds most of them to doubles and reduces only the rest into
+    /// `exact` (reducing them all, a gcd per coordinate, was a fifth of the insertion on
+    /// 100071_sf). A vertex is in one of the two at most.
+    std::unordered_map<index_t, homogeneous_point> unreduced;
     /// Positively oriented by an exact orient3d on the exact positions.
     std::vector<tet_indices> tets;
     /// The tracked surface: faces of `tets` that cover input triangles. Face i covers the
@@ -76,11 +91,10 @@ struct inserted_mesh {
     /// because a neighbour put points on their faces or edges.
     std::size_t cut_tets = 0, refined_tets = 0;
 
-    bool is_exact_double(index_t v) const { return !exact.contains(v); }
-    rational_point exact_position(index_t v) const {
-        auto it = exact.find(v);
-        return it == exact.end() ? to_rational(vertices[v]) : it->second;
-    }
+    bool is_exact_double(index_t v) const { return !exact.contains(v) && !unreduced.contains(v); }
+    std::size_t rational_vertices() const { return exact.size() + unreduced.size(); }
+    rational_point exact_position(index_t v) const;
+    homogeneous_point exact_homogeneous(index_t v) const;
 };
 
 namespace detail {
@@ -208,16 +222,6 @@ inline void plane_value(const exact_plane& pl, const rational_point& x, mpz_clas
     N -= pl.off * D;
 }
 
-/// An exact point in homogeneous integers, (X, Y, Z) / W with W != 0, not reduced. A
-/// cut point comes from three integer planes by Cramer's rule, so its integers are
-/// bounded by the planes' sizes without a gcd (reducing them cost 13% of the insertion
-/// on 37989_sf), and a plane's value at it is n . X - off W: four products, where a
-/// canonical rational point needs twelve on integers three times as long.
-struct homogeneous_point {
-    int_vector X;
-    mpz_class W;
-};
-
 /// The double point p exactly: X = p 2^s, W = 2^s with the least s >= 0 that makes X
 /// integer.
 inline homogeneous_point to_homogeneous(const vec3& p) {
@@ -312,13 +316,18 @@ inline void difference_row(const homogeneous_point& b, const homogeneous_point& 
     }
 }
 
-/// Sign of plane pl at x (scratch: an integer that keeps its storage).
-inline int plane_sign(const exact_plane& pl, const homogeneous_point& x, mpz_class& scratch) {
-    mpz_ptr v = scratch.get_mpz_t();
+/// N = n . X - off W: the plane's value at x times W.
+inline void plane_numerator(const exact_plane& pl, const homogeneous_point& x, mpz_class& N) {
+    mpz_ptr v = N.get_mpz_t();
     mpz_mul(v, pl.n[0].get_mpz_t(), x.X[0].get_mpz_t());
     mpz_addmul(v, pl.n[1].get_mpz_t(), x.X[1].get_mpz_t());
     mpz_addmul(v, pl.n[2].get_mpz_t(), x.X[2].get_mpz_t());
     mpz_submul(v, pl.off.get_mpz_t(), x.W.get_mpz_t());
+}
+
+/// Sign of plane pl at x (scratch: an integer that keeps its storage).
+inline int plane_sign(const exact_plane& pl, const homogeneous_point& x, mpz_class& scratch) {
+    plane_numerator(pl, x, scratch);
     return sgn(scratch) * sgn(x.W);
 }
 
@@ -474,11 +483,7 @@ struct triangle_planes {
 /// The value of plane pl at x as N / D, D > 0: a positive multiple of n . x - off.
 inline void plane_value(const exact_plane& pl, const homogeneous_point& x, mpz_class& N,
                         mpz_class& D) {
-    mpz_ptr v = N.get_mpz_t();
-    mpz_mul(v, pl.n[0].get_mpz_t(), x.X[0].get_mpz_t());
-    mpz_addmul(v, pl.n[1].get_mpz_t(), x.X[1].get_mpz_t());
-    mpz_addmul(v, pl.n[2].get_mpz_t(), x.X[2].get_mpz_t());
-    mpz_submul(v, pl.off.get_mpz_t(), x.W.get_mpz_t());
+    plane_numerator(pl, x, N);
     D = x.W;
     if (sgn(D) < 0) N = -N, D = -D;
 }
@@ -1114,23 +1119,30 @@ private:
         const std::uint64_t key =
             (std::uint64_t(std::min(a, b)) << 42) | (std::uint64_t(std::max(a, b)) << 20) | k;
         if (auto it = edge_points_.find(key); it != edge_points_.end()) return it->second;
+        // Between two double points (a tet's edge, mostly) from the ends: integers of
+        // the plane's size and twice the points', shorter than a meet of the tet's face
+        // planes, which need building too. Between cut points from the planes through
+        // the segment's line, if known: the ends' own integers would multiply.
         homogeneous_point x;
-        if (const auto line = line_through(a, b)) {
+        std::optional<std::array<std::uint32_t, 2>> line;
+        if (!(pts_[a].is_double && pts_[b].is_double)) line = line_through(a, b);
+        if (line) {
             x = meet((*line)[0], (*line)[1], k);
         } else {
-            // Not reached on the meshes of data/ (every segment's line was known), kept so
-            // that a point on more planes than the cut recorded still gets its crossing.
             // x = (fa B - fb A) / (fa - fb), where the plane's value at A = X_A / W_A is
             // fa = Na / W_A with Na = n . X_A - off W_A (fb likewise): over W_A W_B,
-            // x = (Na X_B - Nb X_A) / (Na W_B - Nb W_A).
+            // x = (Na X_B - Nb X_A) / (Na W_B - Nb W_A). (Between cut points, not reached
+            // on the meshes of data/: every such segment's line was known.)
             const homogeneous_point &A = pts_[a].h(), &B = pts_[b].h();
             const exact_plane& pl = *planes_[k];
-            const mpz_class Na =
-                pl.n[0] * A.X[0] + pl.n[1] * A.X[1] + pl.n[2] * A.X[2] - pl.off * A.W;
-            const mpz_class Nb =
-                pl.n[0] * B.X[0] + pl.n[1] * B.X[1] + pl.n[2] * B.X[2] - pl.off * B.W;
-            for (std::size_t i = 0; i < 3; ++i) x.X[i] = Na * B.X[i] - Nb * A.X[i];
-            x.W = Na * B.W - Nb * A.W;
+            thread_local mpz_class Na, Nb;
+            plane_numerator(pl, A, Na), plane_numerator(pl, B, Nb);
+            for (std::size_t i = 0; i < 3; ++i) {
+                mpz_mul(x.X[i].get_mpz_t(), Na.get_mpz_t(), B.X[i].get_mpz_t());
+                mpz_submul(x.X[i].get_mpz_t(), Nb.get_mpz_t(), A.X[i].get_mpz_t());
+            }
+            mpz_mul(x.W.get_mpz_t(), Na.get_mpz_t(), B.W.get_mpz_t());
+            mpz_submul(x.W.get_mpz_t(), Nb.get_mpz_t(), A.W.get_mpz_t());
         }
         const std::uint32_t id = std::uint32_t(pts_.size());
         pts_.push_back(make_point(std::move(x), std::uint8_t(pts_[a].faces & pts_[b].faces)));
@@ -1564,12 +1576,13 @@ public:
     index_t find_or_add(const point& p) {
         auto& ids = by_approx_[key{p.approx.x, p.approx.y, p.approx.z}];
         for (index_t id : ids)
-            if (p.is_double ? m_.is_exact_double(id)
-                            : (!m_.is_exact_double(id) && same_point(*p.exact, m_.exact.at(id))))
+            if (p.is_double
+                    ? m_.is_exact_double(id)
+                    : (!m_.is_exact_double(id) && same_point(*p.exact, m_.unreduced.at(id))))
                 return id;
         const index_t id = index_t(m_.vertices.size());
         m_.vertices.push_back(p.approx);
-        if (!p.is_double) m_.exact.emplace(id, canonical(*p.exact));
+        if (!p.is_double) m_.unreduced.emplace(id, *p.exact);
         ids.push_back(id);
         return id;
     }
@@ -1733,6 +1746,14 @@ inline inserted_mesh insert_triangles(const insertion_input& in) {
 
 namespace detail {
 
+/// p exactly, over the product of its denominators.
+inline homogeneous_point to_homogeneous(const rational_point& p) {
+    homogeneous_point h;
+    h.W = p.x.get_den() * p.y.get_den() * p.z.get_den();
+    for (std::size_t k = 0; k < 3; ++k) h.X[k] = p[int(k)].get_num() * (h.W / p[int(k)].get_den());
+    return h;
+}
+
 /// orient3d's sign on the exact positions of a tet of the result when its doubles
 /// decide it, 0 when they cannot.
 inline int orientation_from_doubles(const inserted_mesh& r, const tet_indices& t) {
@@ -1747,6 +1768,18 @@ inline int orientation_from_doubles(const inserted_mesh& r, const tet_indices& t
 
 } // namespace detail
 
+inline rational_point inserted_mesh::exact_position(index_t v) const {
+    if (auto it = exact.find(v); it != exact.end()) return it->second;
+    if (auto it = unreduced.find(v); it != unreduced.end()) return detail::canonical(it->second);
+    return to_rational(vertices[v]);
+}
+
+inline homogeneous_point inserted_mesh::exact_homogeneous(index_t v) const {
+    if (auto it = unreduced.find(v); it != unreduced.end()) return it->second;
+    if (auto it = exact.find(v); it != exact.end()) return detail::to_homogeneous(it->second);
+    return detail::to_homogeneous(vertices[v]);
+}
+
 /// Exact orient3d of a tet of the result.
 inline int orientation(const inserted_mesh& r, const tet_indices& t) {
     bool doubles = true;
@@ -1754,9 +1787,8 @@ inline int orientation(const inserted_mesh& r, const tet_indices& t) {
     if (doubles)
         return orient3d(r.vertices[t[0]], r.vertices[t[1]], r.vertices[t[2]], r.vertices[t[3]]);
     if (const int sign = detail::orientation_from_doubles(r, t); sign != 0) return sign;
-    return idas::detail::predicates::orient3d_rational_mpz(
-        r.exact_position(t[0]), r.exact_position(t[1]), r.exact_position(t[2]),
-        r.exact_position(t[3]));
+    return detail::orient_exact(r.exact_homogeneous(t[0]), r.exact_homogeneous(t[1]),
+                                r.exact_homogeneous(t[2]), r.exact_homogeneous(t[3]));
 }
 
 /// Tets whose exact orientation is not positive.
@@ -1770,30 +1802,44 @@ inline std::size_t count_inverted(const inserted_mesh& r) {
 
 /// Rounds every rational vertex to the nearest doubles whose tets all stay positive
 /// (exact orient3d), repeating while some vertex could be rounded. Returns how many
-/// vertices stay rational.
+/// vertices stay rational; their positions are reduced into `exact` (`unreduced` is
+/// empty after).
 inline std::size_t round_vertices(inserted_mesh& r) {
     const auto [first, star] = detail::vertex_stars(r.vertices.size(), r.tets);
     std::vector<index_t> pending;
     for (const auto& [v, q] : r.exact) pending.push_back(v);
+    for (const auto& [v, h] : r.unreduced) pending.push_back(v);
     std::sort(pending.begin(), pending.end());
     for (bool progress = true; progress && !pending.empty();) {
         progress = false;
         std::vector<index_t> still;
         for (index_t v : pending) {
-            const rational_point q = r.exact.at(v);
-            r.exact.erase(v); // try the nearest doubles (r.vertices[v])
+            // Take it out of the map that holds it: try the nearest doubles (r.vertices[v]).
+            std::optional<rational_point> q;
+            std::optional<homogeneous_point> h;
+            if (auto it = r.exact.find(v); it != r.exact.end()) {
+                q = std::move(it->second);
+                r.exact.erase(it);
+            } else {
+                auto at = r.unreduced.find(v);
+                h = std::move(at->second);
+                r.unreduced.erase(at);
+            }
             bool ok = true;
             for (index_t s = first[v]; s < first[v + 1] && ok; ++s)
                 ok = orientation(r, r.tets[star[s]]) > 0;
             if (ok) {
                 progress = true;
             } else {
-                r.exact.emplace(v, q);
+                if (q) r.exact.emplace(v, std::move(*q));
+                if (h) r.unreduced.emplace(v, std::move(*h));
                 still.push_back(v);
             }
         }
         pending = std::move(still);
     }
+    for (auto& [v, h] : r.unreduced) r.exact.emplace(v, detail::canonical(h));
+    r.unreduced.clear();
     return r.exact.size();
 }
 

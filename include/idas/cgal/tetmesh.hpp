@@ -187,16 +187,30 @@ inline std::size_t count_covered(const insertion::inserted_mesh& m, const clean_
         for (int a = 1; a < 3; ++a)
             if (std::abs(n[a]) > std::abs(n[drop])) drop = a;
         const int u = (drop + 1) % 3, w = (drop + 2) % 3;
-        auto area2 = [&](const rational_point& a, const rational_point& b,
-                         const rational_point& c) {
-            return mpq_class(abs((b[u] - a[u]) * (c[w] - a[w]) - (b[w] - a[w]) * (c[u] - a[u])));
+        // Rows of |W_a W_b| (b - a) and |W_a W_c| (c - a): their cross product is twice
+        // the signed area times W_a^2 |W_b W_c|.
+        auto area2 = [&](const insertion::homogeneous_point& a,
+                         const insertion::homogeneous_point& b,
+                         const insertion::homogeneous_point& c) {
+            insertion::detail::int_vector rb, rc;
+            insertion::detail::difference_row(b, a, rb);
+            insertion::detail::difference_row(c, a, rc);
+            const auto U = std::size_t(u), W = std::size_t(w);
+            mpq_class r;
+            r.get_num() = abs(rb[U] * rc[W] - rb[W] * rc[U]);
+            r.get_den() = abs(a.W * a.W * b.W * c.W);
+            r.canonicalize();
+            return r;
         };
-        const mpq_class whole = area2(to_rational(s.vertices[f[0]]), to_rational(s.vertices[f[1]]),
-                                      to_rational(s.vertices[f[2]]));
+        const auto corner = [&](int i) {
+            return insertion::detail::to_homogeneous(s.vertices[f[std::size_t(i)]]);
+        };
+        const mpq_class whole = area2(corner(0), corner(1), corner(2));
         mpq_class sum = 0;
         for (index_t k = first[t]; k < first[t + 1]; ++k) {
             const auto& g = m.tracked[faces[k]];
-            sum += area2(m.exact_position(g[0]), m.exact_position(g[1]), m.exact_position(g[2]));
+            sum += area2(m.exact_homogeneous(g[0]), m.exact_homogeneous(g[1]),
+                         m.exact_homogeneous(g[2]));
         }
         if (sum == whole) covered.fetch_add(1, std::memory_order_relaxed);
     });
@@ -290,7 +304,7 @@ inline result insert_soup(const std::vector<vec3>& vertices, const std::vector<t
     t0 = clock::now();
     out.mesh = insertion::insert_triangles(in);
     r.cut_tets = out.mesh.cut_tets, r.refined_tets = out.mesh.refined_tets;
-    r.rational_vertices_created = out.mesh.exact.size();
+    r.rational_vertices_created = out.mesh.rational_vertices();
     r.seconds_insertion = detail::seconds_since(t0);
 
     // Check the guarantee before rounding moves anything: exact cover of every triangle.
