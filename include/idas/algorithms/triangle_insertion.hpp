@@ -428,9 +428,13 @@ inline std::pair<vec3, double> approximate_edge_normal(const vec3& e0, const vec
 /// The planes through the edges of triangle tri (edge e from corner e to corner e + 1),
 /// perpendicular to it, each with the triangle's third corner on its negative side. The
 /// triangle's normal is built once for the three, exactly and in doubles.
-inline std::array<exact_plane, 3> edge_planes(const std::array<vec3, 3>& tri) {
+/// With `plane` (the triangle's, from plane_through()), its exact form too, from the same
+/// integers.
+inline std::array<exact_plane, 3> edge_planes(const std::array<vec3, 3>& tri,
+                                              exact_plane* plane = nullptr) {
     const scaled_points s(tri);
     const int_vector n = cross(minus(s.P[1], s.P[0]), minus(s.P[2], s.P[0]));
+    if (plane != nullptr && !plane->has_exact) s.set_plane(*plane, n, s.P[0]);
     const auto [n_approx, n_error] = approximate_normal(tri[0], tri[1], tri[2]);
     std::array<exact_plane, 3> out;
     for (std::size_t e = 0; e < 3; ++e) {
@@ -692,8 +696,7 @@ inline cutting_planes find_cutting_planes(const insertion_input& in, const tet_a
         const auto& tri = in.triangles[t];
         auto& tp = planes[t];
         tp.plane = plane_through(V[tri[0]], V[tri[1]], V[tri[2]]);
-        make_exact(tp.plane);
-        tp.edges = edge_planes({V[tri[0]], V[tri[1]], V[tri[2]]});
+        tp.edges = edge_planes({V[tri[0]], V[tri[1]], V[tri[2]]}, &tp.plane);
     });
     struct local {
         std::vector<std::uint32_t> stamp;
