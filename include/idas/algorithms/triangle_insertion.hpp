@@ -61,9 +61,9 @@ struct insertion_input {
 
 /// An exact point in homogeneous integers, (X, Y, Z) / W with W != 0, not reduced. A
 /// cut point comes from three integer planes by Cramer's rule, so its integers are
-/// bounded by the planes' sizes without a gcd (reducing them cost 13% of the insertion
-/// on 37989_sf), and a plane's value at it is n . X - off W: four products, where a
-/// canonical rational point needs twelve on integers three times as long.
+/// bounded by the planes' sizes without the gcd that reducing each coordinate costs, and
+/// a plane's value at it is n . X - off W: four products, where a canonical rational
+/// point needs twelve on integers three times as long.
 struct homogeneous_point {
     std::array<mpz_class, 3> X;
     mpz_class W;
@@ -77,8 +77,8 @@ struct inserted_mesh {
     std::unordered_map<index_t, rational_point> exact;
     /// The same for created vertices not reduced yet, as the insertion made them:
     /// round_vertices() rounds most of them to doubles and reduces only the rest into
-    /// `exact` (reducing them all, a gcd per coordinate, was a fifth of the insertion on
-    /// 100071_sf). A vertex is in one of the two at most.
+    /// `exact` (a gcd per coordinate, for a few vertices instead of all). A vertex is in
+    /// one of the two at most.
     std::unordered_map<index_t, homogeneous_point> unreduced;
     /// Positively oriented by an exact orient3d on the exact positions.
     std::vector<tet_indices> tets;
@@ -111,8 +111,8 @@ struct exact_plane {
     mpz_class off;
     bool has_exact = false;
     bool by_points = false;
-    /// by_points: the three points; otherwise the first `points_on` of them lie on the
-    /// plane (an edge plane's edge ends), a zero known without arithmetic.
+    /// by_points: the three points; otherwise, when points_on is 2, p[0] and p[1] lie on
+    /// the plane (an edge plane's edge ends): a zero known without arithmetic.
     std::array<vec3, 3> p{};
     std::uint8_t points_on = 0;
     // In doubles, for the floating-point filter: the normal (each component within
@@ -279,7 +279,7 @@ inline bool equals_double(const mpz_class& X, const mpz_class& W, double x) {
     return mpz_cmp(lhs.get_mpz_t(), rhs.get_mpz_t()) == 0;
 }
 
-/// Sign of X_k / W_a - Y_k / W_b for coordinate k of points a and b.
+/// Sign of a_k - b_k, coordinate k of points a and b (X_a,k / W_a - X_b,k / W_b).
 inline int compare_coordinate(const homogeneous_point& a, const homogeneous_point& b, int k) {
     thread_local mpz_class t;
     mpz_mul(t.get_mpz_t(), a.X[std::size_t(k)].get_mpz_t(), b.W.get_mpz_t());
