@@ -163,6 +163,23 @@ inline mpz_class dot(const int_vector& u, const int_vector& v) {
     return u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
 }
 
+/// The exponent of the lowest bit a double x != 0 can hold: x = M 2^lowest_bit(x) with
+/// an integer M below 2^53.
+inline int lowest_bit(double x) {
+    int e = 0;
+    std::frexp(x, &e); // x = m 2^e, 0.5 <= |m| < 1: bits down to 2^(e - 53)
+    return e - 53;
+}
+
+/// out = x / 2^low, an integer for any low <= lowest_bit(x) (out keeps 0 for x = 0).
+inline void set_scaled(mpz_class& out, double x, int low) {
+    if (x == 0) return;
+    int e = 0;
+    const double m = std::frexp(x, &e);
+    mpz_set_d(out.get_mpz_t(), std::ldexp(m, 53)); // exact: an integer below 2^53
+    mpz_mul_2exp(out.get_mpz_t(), out.get_mpz_t(), mp_bitcnt_t(e - 53 - low));
+}
+
 /// Double points as exact integers on a common scale: p = P * 2^low, where 2^low is the
 /// lowest bit of any of their coordinates.
 struct scaled_points {
@@ -173,20 +190,10 @@ struct scaled_points {
         low = std::numeric_limits<int>::max();
         for (const vec3& x : p)
             for (int k = 0; k < 3; ++k)
-                if (x[k] != 0) {
-                    int e = 0;
-                    std::frexp(x[k], &e); // x = m 2^e, 0.5 <= |m| < 1: bits down to 2^(e - 53)
-                    low = std::min(low, e - 53);
-                }
+                if (x[k] != 0) low = std::min(low, lowest_bit(x[k]));
         if (low == std::numeric_limits<int>::max()) low = 0;
         for (std::size_t i = 0; i < 3; ++i)
-            for (int k = 0; k < 3; ++k) {
-                if (p[i][k] == 0) continue; // P[i][k] is 0 already
-                int e = 0;
-                const double m = std::frexp(p[i][k], &e);
-                P[i][k] = std::ldexp(m, 53); // exact: an integer below 2^53
-                P[i][k] <<= mp_bitcnt_t(e - 53 - low);
-            }
+            for (int k = 0; k < 3; ++k) set_scaled(P[i][std::size_t(k)], p[i][k], low);
     }
 
     /// The plane with normal n (in scaled space) through scaled point A, as an integer
@@ -228,19 +235,8 @@ inline homogeneous_point to_homogeneous(const vec3& p) {
     homogeneous_point h;
     int low = 0; // the lowest bit of any coordinate, as an exponent (capped at 2^0)
     for (int k = 0; k < 3; ++k)
-        if (p[k] != 0) {
-            int e = 0;
-            std::frexp(p[k], &e); // p = m 2^e, 0.5 <= |m| < 1: bits down to 2^(e - 53)
-            low = std::min(low, e - 53);
-        }
-    for (int k = 0; k < 3; ++k) {
-        if (p[k] == 0) continue;
-        int e = 0;
-        const double m = std::frexp(p[k], &e);
-        mpz_set_d(h.X[std::size_t(k)].get_mpz_t(), std::ldexp(m, 53)); // an integer < 2^53
-        mpz_mul_2exp(h.X[std::size_t(k)].get_mpz_t(), h.X[std::size_t(k)].get_mpz_t(),
-                     mp_bitcnt_t(e - 53 - low));
-    }
+        if (p[k] != 0) low = std::min(low, lowest_bit(p[k]));
+    for (int k = 0; k < 3; ++k) set_scaled(h.X[std::size_t(k)], p[k], low);
     h.W = 1;
     mpz_mul_2exp(h.W.get_mpz_t(), h.W.get_mpz_t(), mp_bitcnt_t(-low));
     return h;
@@ -266,16 +262,10 @@ inline vec3 to_vec3(const homogeneous_point& h) {
 inline bool equals_double(const mpz_class& X, const mpz_class& W, double x) {
     if (x == 0) return sgn(X) == 0;
     thread_local mpz_class lhs, rhs;
-    int e = 0;
-    const double m = std::frexp(x, &e);
-    e -= 53; // x = M 2^e with the integer M = m 2^53
-    mpz_set_d(rhs.get_mpz_t(), std::ldexp(m, 53));
+    const int low = std::min(lowest_bit(x), 0); // x = rhs 2^low: X == rhs W 2^low
+    set_scaled(rhs, x, low);
     mpz_mul(rhs.get_mpz_t(), rhs.get_mpz_t(), W.get_mpz_t());
-    if (e >= 0) {
-        mpz_mul_2exp(rhs.get_mpz_t(), rhs.get_mpz_t(), mp_bitcnt_t(e));
-        return mpz_cmp(X.get_mpz_t(), rhs.get_mpz_t()) == 0;
-    }
-    mpz_mul_2exp(lhs.get_mpz_t(), X.get_mpz_t(), mp_bitcnt_t(-e));
+    mpz_mul_2exp(lhs.get_mpz_t(), X.get_mpz_t(), mp_bitcnt_t(-low));
     return mpz_cmp(lhs.get_mpz_t(), rhs.get_mpz_t()) == 0;
 }
 
