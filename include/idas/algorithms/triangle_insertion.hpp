@@ -407,32 +407,41 @@ inline exact_plane plane_through(const vec3& a, const vec3& b, const vec3& c) {
     return pl;
 }
 
-/// The normal of the plane through edge (e0, e1) perpendicular to a triangle whose
-/// normal in doubles is n (within n_error per component), in doubles with its error bound.
-inline std::pair<vec3, double> approximate_edge_normal(const vec3& e0, const vec3& e1,
-                                                       const vec3& n, double n_error) {
-    const vec3 d = e1 - e0; // within one rounding of the exact difference
-    return {cross(d, n), cross_error(max_abs(d), unit_roundoff * max_abs(d), max_abs(n), n_error)};
-}
-
 /// The planes through the edges of triangle tri (edge e from corner e to corner e + 1),
-/// perpendicular to it, each with the triangle's third corner on its negative side. The
-/// triangle's normal is built once for the three, exactly and in doubles.
-/// With `plane` (the triangle's, from plane_through()), its exact form too, from the same
-/// integers.
+/// each with the triangle's third corner on its negative side. Each holds its edge and
+/// the coordinate axis u along which the triangle's normal n is largest (signed so that
+/// n . u > 0): its normal (e1 - e0) x u is two of the edge's own differences, so the
+/// plane's integers are as short as the corners' and the points cut with it stay short
+/// too. Edge planes only ever separate points of the triangle's plane, where any plane
+/// through the edge but not along the triangle draws the same line. With `plane` (the
+/// triangle's, from plane_through()), its exact form too, from the same integers.
 inline std::array<exact_plane, 3> edge_planes(const std::array<vec3, 3>& tri,
                                               exact_plane* plane = nullptr) {
     const scaled_points s(tri);
     const int_vector n = cross(minus(s.P[1], s.P[0]), minus(s.P[2], s.P[0]));
     if (plane != nullptr && !plane->has_exact) s.set_plane(*plane, n, s.P[0]);
-    const auto [n_approx, n_error] = approximate_normal(tri[0], tri[1], tri[2]);
+    std::size_t axis = 0;
+    for (std::size_t k = 1; k < 3; ++k)
+        if (mpz_cmpabs(n[k].get_mpz_t(), n[axis].get_mpz_t()) > 0) axis = k;
+    // Third corner c: ((e1 - e0) x u) . (c - e0) = -(n . u), negative for n[axis] u > 0.
+    // (Input triangles are not flat: n != 0.)
+    const int up = sgn(n[axis]) < 0 ? -1 : 1;
+    const std::size_t j = (axis + 1) % 3, k = (axis + 2) % 3;
     std::array<exact_plane, 3> out;
     for (std::size_t e = 0; e < 3; ++e) {
         const std::size_t f = (e + 1) % 3;
         exact_plane& pl = out[e];
-        s.set_plane(pl, cross(minus(s.P[f], s.P[e]), n), s.P[e]);
-        std::tie(pl.normal, pl.normal_error) =
-            approximate_edge_normal(tri[e], tri[f], n_approx, n_error);
+        // d x u for u = up * axis: component j is up * d_k, component k is -up * d_j.
+        int_vector m;
+        m[j] = s.P[f][k] - s.P[e][k];
+        m[k] = s.P[e][j] - s.P[f][j];
+        if (up < 0) m[j] = -m[j], m[k] = -m[k];
+        s.set_plane(pl, std::move(m), s.P[e]);
+        const vec3 d = tri[f] - tri[e]; // within one rounding of the exact difference
+        pl.normal = vec3{};
+        pl.normal[int(j)] = up * d[int(k)];
+        pl.normal[int(k)] = -up * d[int(j)];
+        pl.normal_error = 1.01 * unit_roundoff * max_abs(d) + 1e-300;
         pl.anchor = tri[e];
         pl.p = {tri[e], tri[f], tri[f]};
         pl.points_on = 2;
@@ -467,8 +476,8 @@ inline bool boxes_overlap(const vec3& a, const vec3& b, const vec3& c,
 ///   only when that is not conclusive.
 enum class meeting : std::uint8_t { misses, touches, with_area };
 
-/// An input triangle's plane and the planes through its edges perpendicular to it,
-/// exact, built once per triangle.
+/// An input triangle's plane and the planes through its edges (edge_planes()), exact and
+/// in doubles, built once per triangle for the walk and for every tet the triangle cuts.
 struct triangle_planes {
     exact_plane plane;
     std::array<exact_plane, 3> edges;
@@ -482,26 +491,11 @@ inline void plane_value(const exact_plane& pl, const homogeneous_point& x, mpz_c
     if (sgn(D) < 0) N = -N, D = -D;
 }
 
-/// A triangle's normal and the normals of the planes through its edges perpendicular to
-/// it, in doubles with their error bounds: the same for every tet a walk visits.
-struct triangle_normals {
-    std::pair<vec3, double> normal;
-    std::array<std::pair<vec3, double>, 3> edge; ///< edge e: from corner e to corner e + 1
-    triangle_normals(const vec3& a, const vec3& b, const vec3& c)
-        : normal(approximate_normal(a, b, c)) {
-        const std::array<const vec3*, 3> corner{&a, &b, &c};
-        for (std::size_t e = 0; e < 3; ++e)
-            edge[e] = approximate_edge_normal(*corner[e], *corner[(e + 1) % 3], normal.first,
-                                              normal.second);
-    }
-};
-
 /// `shares_corner`: a corner of the triangle is a corner of the tet, so they meet.
 /// `exact`: the triangle's exact planes, for the cases the filters cannot decide.
 inline meeting how_triangle_meets(const vec3& a, const vec3& b, const vec3& c,
-                                  const triangle_normals& normals, const triangle_planes& exact,
-                                  const std::array<vec3, 4>& p, const std::array<int, 4>& s,
-                                  bool shares_corner) {
+                                  const triangle_planes& exact, const std::array<vec3, 4>& p,
+                                  const std::array<int, 4>& s, bool shares_corner) {
     int pos = 0, neg = 0, zero = 0;
     for (int i = 0; i < 4; ++i) pos += s[i] > 0, neg += s[i] < 0, zero += s[i] == 0;
     if (pos == 4 || neg == 4) return meeting::misses;
@@ -521,13 +515,15 @@ inline meeting how_triangle_meets(const vec3& a, const vec3& b, const vec3& c,
         if (face_side[f][0] == -inside && face_side[f][1] == -inside && face_side[f][2] == -inside)
             return meeting::misses;
     }
-    // Separation by the plane through an edge, perpendicular to the triangle: floating
-    // point beyond its proven error bound, so it only ever drops tets that are outside.
-    const auto& [n, n_error] = normals.normal;
+    // Separation by the plane through an edge: floating point beyond its proven error
+    // bound, so it only ever drops tets that are outside.
+    const vec3& n = exact.plane.normal;
+    const double n_error = exact.plane.normal_error;
     const std::array<vec3, 3> tri{a, b, c};
     for (std::size_t e = 0; e < 3; ++e) {
         const vec3& e0 = tri[e];
-        const auto& [m, m_error] = normals.edge[e];
+        const vec3& m = exact.edges[e].normal;
+        const double m_error = exact.edges[e].normal_error;
         bool outside = true;
         for (const vec3& q : p) {
             const vec3 d = q - e0;
@@ -560,7 +556,8 @@ inline meeting how_triangle_meets(const vec3& a, const vec3& b, const vec3& c,
     mpz_class Nfu, Dfu, Nfv, Dfv, Ngu, Dgu, Ngv, Dgv;
     for (std::size_t e = 0; e < 3; ++e) {
         const vec3 &e0 = tri[e], &e1 = tri[(e + 1) % 3];
-        const auto& [m, m_error] = normals.edge[e];
+        const vec3& m = exact.edges[e].normal;
+        const double m_error = exact.edges[e].normal_error;
         auto edge_value = [&](const homogeneous_point& x, mpz_class& N, mpz_class& D) {
             plane_value(exact.edges[e], x, N, D);
         };
@@ -711,7 +708,6 @@ inline cutting_planes find_cutting_planes(const insertion_input& in, const tet_a
                 const auto& tri = in.triangles[ti];
                 const vec3 &a = V[tri[0]], &b = V[tri[1]], &c = V[tri[2]];
                 const std::uint32_t mark = std::uint32_t(ti + 1);
-                const triangle_normals normals(a, b, c);
                 L.queue.clear();
                 auto visit = [&](index_t t) {
                     if (L.stamp[t] == mark) return;
@@ -734,11 +730,31 @@ inline cutting_planes find_cutting_planes(const insertion_input& in, const tet_a
                                                tet_local::contains(tv, tri[1]) ||
                                                tet_local::contains(tv, tri[2]);
                     const meeting how =
-                        how_triangle_meets(a, b, c, normals, planes[ti], p, s, shares_corner);
+                        how_triangle_meets(a, b, c, planes[ti], p, s, shares_corner);
                     if (how == meeting::misses) return;
                     L.queue.push_back(t);
                     if (how == meeting::with_area) L.pairs.emplace_back(t, index_t(ti));
                 };
+                // A triangle that is a face of the background (most of a dense input's are
+                // faces of its Delaunay tetrahedralization) meets the one or two tets on
+                // that face in area, and every other tet in an edge or a corner at most.
+                bool is_face = false;
+                const bool distinct = tri[0] != tri[1] && tri[1] != tri[2] && tri[2] != tri[0];
+                for (index_t s = adj.star_first[tri[0]]; distinct && s < adj.star_first[tri[0] + 1];
+                     ++s) {
+                    const index_t t = adj.star[s];
+                    const auto& tv = in.tets[t];
+                    const std::uint8_t i1 = tet_local::index_of(tv, tri[1]),
+                                       i2 = tet_local::index_of(tv, tri[2]);
+                    if (i1 == tet_local::none || i2 == tet_local::none) continue;
+                    const auto f = std::uint8_t(6 - tet_local::index_of(tv, tri[0]) - i1 - i2);
+                    L.pairs.emplace_back(t, index_t(ti));
+                    if (const index_t nb = adj.across[4 * t + f]; nb != invalid_index)
+                        L.pairs.emplace_back(nb, index_t(ti));
+                    is_face = true;
+                    break;
+                }
+                if (is_face) continue;
                 for (index_t s = adj.star_first[tri[0]]; s < adj.star_first[tri[0] + 1]; ++s)
                     visit(adj.star[s]);
                 for (std::size_t q = 0; q < L.queue.size(); ++q)
@@ -849,10 +865,17 @@ struct polygon {
     std::int32_t support = 0;
 };
 
+/// Input triangles (most facets lie in the plane of none or one).
+using triangle_list = boost::container::small_vector<index_t, 4>;
+/// A facet split along lines (most are not split).
+using facet_parts = boost::container::small_vector<polygon, 2>;
+
+// A cut tet's lists are short and live as long as the cutter: kept inside it where they
+// fit (small_vector), a cut tet asks the heap for a few blocks, not hundreds of pieces.
 struct cell {
-    std::vector<polygon> facets;                ///< convex facets from the cuts
-    std::vector<std::vector<polygon>> parts;    ///< each facet split along lines
-    std::vector<std::vector<index_t>> on_plane; ///< input triangles in each facet's plane
+    boost::container::small_vector<polygon, 6> facets;         ///< convex facets from the cuts
+    boost::container::small_vector<facet_parts, 6> parts;      ///< each facet split along lines
+    boost::container::small_vector<triangle_list, 6> on_plane; ///< input triangles in its plane
 };
 
 /// Points a tet hands to its neighbours: on its face f (face >= 0) or on its local edge
@@ -867,7 +890,7 @@ struct tet_output {
     std::vector<point> points; // the first four are the tet's corners
     std::vector<std::array<std::uint32_t, 4>> tets;
     std::vector<std::array<std::uint32_t, 3>> tracked;
-    std::vector<std::vector<index_t>> tracked_by;
+    std::vector<triangle_list> tracked_by;
 };
 
 inline point make_point(const vec3& p, std::uint8_t faces) {
@@ -893,6 +916,7 @@ public:
         , adj_(adj)
         , tet_(tet) {
         const auto& tv = in.tets[tet];
+        pts_.reserve(8);
         for (std::uint8_t i = 0; i < 4; ++i)
             pts_.push_back(make_point(in.vertices[tv[i]], std::uint8_t(0xF & ~(1u << i))));
         cell c;
@@ -914,7 +938,7 @@ public:
             c.parts.resize(c.facets.size());
             c.on_plane.resize(c.facets.size());
             for (std::size_t i = 0; i < c.facets.size(); ++i)
-                c.parts[i] = split_facet(c.facets[i], c.on_plane[i]);
+                split_facet(c.facets[i], c.on_plane[i], c.parts[i]);
         }
     }
 
@@ -973,34 +997,44 @@ private:
     index_t tet_;
     std::vector<point> pts_;
     std::vector<cell> cells_;
-    std::vector<const exact_plane*> planes_; // every one exact
+    // Per plane: itself (every one exact), its key (4 * triangle + (0 | edge + 1), or a
+    // face's), its sign at each point (2: not known yet). A cut tet has a few dozen at
+    // most, so lists searched in order beat maps, and most live inside the cutter.
+    boost::container::small_vector<const exact_plane*, 16> planes_;
+    boost::container::small_vector<std::uint64_t, 16> plane_keys_;
+    boost::container::small_vector<boost::container::small_vector<std::int8_t, 24>, 16> signs_;
     std::array<exact_plane, 4> face_planes_;
-    std::vector<std::vector<std::int8_t>> signs_; // per plane, per point; 2 = unknown
-    mpz_class num_;                               // scratch for exact_sign
-    std::unordered_map<std::uint64_t, std::uint32_t> plane_ids_;   // 4 * triangle + (0 | edge + 1)
-    std::unordered_map<std::uint64_t, std::uint32_t> edge_points_; // (a, b, plane)
-    std::vector<std::pair<index_t, std::uint32_t>> group_plane_;
+    mpz_class num_; // scratch for exact_sign
+    // Points made where a plane crosses a segment: key (a, b, plane), point.
+    boost::container::small_vector<std::pair<std::uint64_t, std::uint32_t>, 8> edge_points_;
+    boost::container::small_vector<std::pair<index_t, std::uint32_t>, 4> group_plane_;
     struct triangulation {
-        std::vector<std::array<std::uint32_t, 3>> triangles;
-        std::vector<index_t> tracked_by;
+        boost::container::small_vector<std::array<std::uint32_t, 3>, 8> triangles;
+        triangle_list tracked_by;
         // A point strictly inside the polygon, from its corners alone: (c0 + c1) / 2 if
         // inner_is_midpoint, else (2 c0 + c1 + c2) / 4. Built exactly only when needed.
         std::array<std::uint32_t, 3> inner_corners{};
         bool inner_is_midpoint = false;
         std::int32_t support = 0;
     };
-    std::map<std::vector<std::uint32_t>, triangulation> triangulations_;
-    std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> side_points_;
+    using corner_list = boost::container::small_vector<std::uint32_t, 8>;
+    std::map<corner_list, triangulation> triangulations_; // by sorted corners
+    std::unordered_map<std::uint64_t, corner_list> side_points_;
     std::vector<std::uint32_t> lines_; // scratch of lines_for()
     std::vector<polygon> next_parts_;  // scratch of split_facet()
+    std::vector<cell> next_cells_;     // scratch of cut_cells()
 
+    std::optional<std::uint32_t> known_plane(std::uint64_t key) const {
+        const auto it = std::find(plane_keys_.begin(), plane_keys_.end(), key);
+        if (it == plane_keys_.end()) return std::nullopt;
+        return std::uint32_t(it - plane_keys_.begin());
+    }
     std::uint32_t add_plane(std::uint64_t key, const exact_plane& pl) {
-        auto [it, fresh] = plane_ids_.try_emplace(key, std::uint32_t(planes_.size()));
-        if (fresh) {
-            planes_.push_back(&pl);
-            signs_.emplace_back();
-        }
-        return it->second;
+        if (const auto k = known_plane(key)) return *k;
+        planes_.push_back(&pl);
+        plane_keys_.push_back(key);
+        signs_.emplace_back();
+        return std::uint32_t(planes_.size() - 1);
     }
     std::uint32_t triangle_plane(index_t t) { return add_plane(4ull * t, cp_.planes[t].plane); }
     /// The plane of edge e of triangle t.
@@ -1044,7 +1078,7 @@ private:
     /// The plane of the tet's face f (opposite local corner f), for the lines on it.
     std::uint32_t face_plane(std::uint8_t f) {
         const std::uint64_t key = (std::uint64_t(1) << 63) | f;
-        if (auto it = plane_ids_.find(key); it != plane_ids_.end()) return it->second;
+        if (const auto k = known_plane(key)) return *k;
         const auto& tv = in_.tets[tet_];
         const auto& fv = tet_local::face_vertices[f];
         const auto& V = in_.vertices;
@@ -1111,7 +1145,8 @@ private:
     std::uint32_t crossing(std::uint32_t a, std::uint32_t b, std::uint32_t k) {
         const std::uint64_t key =
             (std::uint64_t(std::min(a, b)) << 42) | (std::uint64_t(std::max(a, b)) << 20) | k;
-        if (auto it = edge_points_.find(key); it != edge_points_.end()) return it->second;
+        for (const auto& [known, id] : edge_points_)
+            if (known == key) return id;
         // Between two double points (a tet's edge, mostly) from the ends: integers of
         // the plane's size and twice the points', shorter than a meet of the tet's face
         // planes, which need building too. Between cut points from the planes through
@@ -1147,7 +1182,7 @@ private:
             }
         signs_[k].resize(pts_.size(), 2);
         signs_[k][id] = 0;
-        edge_points_.emplace(key, id);
+        edge_points_.emplace_back(key, id);
         return id;
     }
 
@@ -1203,8 +1238,8 @@ private:
     }
 
     void cut_cells(std::uint32_t k) {
-        std::vector<cell> next;
-        next.reserve(cells_.size() * 2);
+        std::vector<cell>& next = next_cells_;
+        next.clear();
         for (cell& c : cells_) {
             bool has_pos = false, has_neg = false;
             for (const polygon& f : c.facets)
@@ -1238,12 +1273,12 @@ private:
             P.facets.push_back(cap), N.facets.push_back(cap);
             next.push_back(std::move(P)), next.push_back(std::move(N));
         }
-        cells_ = std::move(next);
+        cells_.swap(next);
     }
 
     /// The lines that split a facet, as planes crossing its plane: edge planes of the
     /// triangles on it; on a face of the tet, also the neighbour's cutting planes.
-    const std::vector<std::uint32_t>& lines_for(const polygon& f, std::vector<index_t>& on_plane) {
+    const std::vector<std::uint32_t>& lines_for(const polygon& f, triangle_list& on_plane) {
         std::vector<std::uint32_t>& lines = lines_;
         lines.clear();
         auto add_edges = [&](index_t t) {
@@ -1287,9 +1322,9 @@ private:
         return lines;
     }
 
-    std::vector<polygon> split_facet(const polygon& f, std::vector<index_t>& on_plane) {
+    void split_facet(const polygon& f, triangle_list& on_plane, facet_parts& parts) {
         const std::vector<std::uint32_t>& lines = lines_for(f, on_plane);
-        std::vector<polygon> parts{f};
+        parts.assign(1, f);
         std::vector<polygon>& next = next_parts_;
         polygon pos, neg;
         for (std::uint32_t k : lines) {
@@ -1301,18 +1336,17 @@ private:
                 else
                     next.push_back(p);
             }
-            std::swap(parts, next);
+            parts.assign(next.begin(), next.end());
         }
-        return parts;
     }
 
     // ---- phase 2 ----
 
     /// Points strictly inside segment (a, b), in order from a.
-    const std::vector<std::uint32_t>& side_points(std::uint32_t a, std::uint32_t b) {
+    const corner_list& side_points(std::uint32_t a, std::uint32_t b) {
         const std::uint64_t key = (std::uint64_t(std::min(a, b)) << 32) | std::max(a, b);
         auto [it, fresh] = side_points_.try_emplace(key);
-        std::vector<std::uint32_t>& found = it->second;
+        corner_list& found = it->second;
         if (fresh) {
             const std::uint32_t lo = std::min(a, b), hi = std::max(a, b);
             const point &A = pts_[lo], &B = pts_[hi];
@@ -1418,8 +1452,8 @@ private:
     }
 
     /// Triangulation of a facet part, the same for every tet and cell that holds it.
-    const triangulation& triangulate(const polygon& P, const std::vector<index_t>& on_plane) {
-        std::vector<std::uint32_t> key(P.v.begin(), P.v.end());
+    const triangulation& triangulate(const polygon& P, const triangle_list& on_plane) {
+        corner_list key(P.v.begin(), P.v.end());
         std::sort(key.begin(), key.end());
         auto [it, fresh] = triangulations_.try_emplace(std::move(key));
         triangulation& T = it->second;
@@ -1430,12 +1464,12 @@ private:
         for (std::size_t i = 1; i < m; ++i)
             if (smaller(P.v[i], P.v[s])) s = i;
         const bool forward = smaller(P.v[(s + 1) % m], P.v[(s + m - 1) % m]);
-        std::vector<std::uint32_t> corners(m);
+        corner_list corners(m);
         for (std::size_t i = 0; i < m; ++i)
             corners[i] = P.v[forward ? (s + i) % m : (s + m - i) % m];
-        // Boundary with every point on the sides; sides_clear[i]: side (i, i + 1) has none.
-        std::vector<std::uint32_t> boundary;
-        std::vector<bool> clear(m);
+        // Boundary with every point on the sides; clear[i]: side (i, i + 1) has none.
+        boost::container::small_vector<std::uint32_t, 16> boundary;
+        boost::container::small_vector<bool, 8> clear(m);
         for (std::size_t i = 0; i < m; ++i) {
             boundary.push_back(corners[i]);
             const auto& extra = side_points(corners[i], corners[(i + 1) % m]);
@@ -1523,10 +1557,10 @@ private:
     /// Tets of a convex cell: a cone from its smallest corner that sees every boundary
     /// triangle not containing it, else from a point inside.
     void cone(const cell& c, tet_output& out) {
-        std::vector<const triangulation*> parts;
+        boost::container::small_vector<const triangulation*, 16> parts;
         for (std::size_t i = 0; i < c.facets.size(); ++i)
             for (const polygon& p : c.parts[i]) parts.push_back(&triangulate(p, c.on_plane[i]));
-        std::vector<std::uint32_t> corners;
+        boost::container::small_vector<std::uint32_t, 16> corners;
         for (const polygon& f : c.facets) corners.insert(corners.end(), f.v.begin(), f.v.end());
         std::sort(corners.begin(), corners.end());
         corners.erase(std::unique(corners.begin(), corners.end()), corners.end());
