@@ -215,6 +215,7 @@ int run_tetmesh_optimized(const tetmesh_arguments& a, const idas::io::surface& s
                                            : "inside tets (MSH physical tag 1)";
         j["seconds"]["optimization"] = qr.seconds_optimization;
         j["seconds"]["winding_number_and_output"] = qr.seconds_output;
+        j["seconds"]["winding_number"] = qr.seconds_winding;
         j["seconds"]["read"] = clock.read;
         j["seconds"]["write"] = clock.write;
         j["seconds"]["total"] = clock.total.seconds();

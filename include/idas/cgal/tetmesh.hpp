@@ -401,6 +401,7 @@ struct quality_report {
     std::size_t flat_or_inverted = 0; ///< among the written tets, exact on their doubles
     tet_quality_summary quality;      ///< of the inside tets
     double seconds_optimization = 0, seconds_output = 0;
+    double seconds_winding = 0; ///< of seconds_output: the labels alone
 };
 
 /// The final mesh: every optimized tet with its label; `inside` says which are the output.
@@ -724,6 +725,7 @@ volume_mesh mesh_volume(const std::vector<vec3>& vertices, const std::vector<tri
     auto [V, T] = m.to_arrays();
     std::vector<double> winding;
     detail::label(w, V, T, winding, out.inside);
+    qr.seconds_winding = detail::seconds_since(t0);
     for (auto x : out.inside) qr.inside_tets += x;
     if (qr.inside_tets == 0)
         throw input_error(source + ": the input encloses no volume (no tet has a winding "
