@@ -41,13 +41,7 @@ struct point_numbering {
     std::vector<index_t> order, index_of;
 };
 inline point_numbering number_points(const std::vector<vec3>& points) {
-    struct view { // what partition::morton::keys reads
-        const std::vector<vec3>& p;
-        index_t vertex_slots() const noexcept { return index_t(p.size()); }
-        bool vertex_alive(index_t) const noexcept { return true; }
-        const vec3& position(index_t v) const noexcept { return p[v]; }
-    };
-    auto keyed = partition::morton::keys(view{points});
+    auto keyed = partition::morton::keys(points);
     tbb::parallel_sort(keyed.begin(), keyed.end());
     point_numbering n;
     n.order.reserve(keyed.size());

@@ -13,6 +13,7 @@
 #include <idas/algorithms/triangle_insertion.hpp>
 #include <idas/algorithms/winding_number.hpp>
 #include <idas/cgal/delaunay.hpp>
+#include <idas/exec/partition.hpp>
 #include <idas/invariants/envelope.hpp>
 #include <idas/mesh/geometry_range.hpp>
 #include <idas/mesh/sizing_field.hpp>
@@ -21,6 +22,7 @@
 #include <boost/container/small_vector.hpp>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
 
 #include <algorithm>
 #include <atomic>
@@ -328,15 +330,24 @@ inline result insert_soup(const std::vector<vec3>& vertices, const std::vector<t
 }
 
 /// Per tet: the winding number of the soup at its centroid, and whether it is above 1/2.
+/// The centroids are taken along a Morton curve: neighbouring queries walk the same nodes
+/// and triangles of the hierarchy, which stay in cache (an optimized mesh lists its tets in
+/// slot order, scattered over the volume).
 inline void label(const winding_number& w, const std::vector<vec3>& V,
                   const std::vector<tet_indices>& T, std::vector<double>& winding,
                   std::vector<std::uint8_t>& inside) {
     inside.assign(T.size(), 0);
     winding.assign(T.size(), 0.0);
+    std::vector<vec3> centroid(T.size());
     tbb::parallel_for(std::size_t{0}, T.size(), [&](std::size_t t) {
         const auto& tv = T[t];
-        const vec3 c = (V[tv[0]] + V[tv[1]] + V[tv[2]] + V[tv[3]]) * 0.25;
-        winding[t] = w.for_label(c);
+        centroid[t] = (V[tv[0]] + V[tv[1]] + V[tv[2]] + V[tv[3]]) * 0.25;
+    });
+    auto along_curve = partition::morton::keys(centroid);
+    tbb::parallel_sort(along_curve.begin(), along_curve.end());
+    tbb::parallel_for(std::size_t{0}, along_curve.size(), [&](std::size_t i) {
+        const index_t t = along_curve[i].second;
+        winding[t] = w.for_label(centroid[t]);
         inside[t] = winding[t] > 0.5;
     });
 }

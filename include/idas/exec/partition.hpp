@@ -81,6 +81,18 @@ struct morton {
         return keyed;
     }
 
+    /// (Morton code, index) of each point of a list, on the same grid over their bounding
+    /// cube: a spatially coherent order for any per-point work.
+    static std::vector<keyed_vertex> keys(const std::vector<vec3>& points) {
+        struct view {
+            const std::vector<vec3>& p;
+            index_t vertex_slots() const noexcept { return index_t(p.size()); }
+            bool vertex_alive(index_t) const noexcept { return true; }
+            const vec3& position(index_t v) const noexcept { return p[v]; }
+        };
+        return keys(view{points});
+    }
+
     /// Equal vertex counts: the vertex of rank i along the curve goes to part
     /// i * parts / (live vertices), as a sort would give.
     template <class Mesh>
