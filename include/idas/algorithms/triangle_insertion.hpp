@@ -156,9 +156,6 @@ inline int_vector cross(const int_vector& u, const int_vector& v) {
     cross_into(out, u, v);
     return out;
 }
-inline int_vector minus(const int_vector& a, const int_vector& b) {
-    return {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
-}
 inline mpz_class dot(const int_vector& u, const int_vector& v) {
     return u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
 }
@@ -171,9 +168,12 @@ inline int lowest_bit(double x) {
     return e - 53;
 }
 
-/// out = x / 2^low, an integer for any low <= lowest_bit(x) (out keeps 0 for x = 0).
+/// out = x / 2^low, an integer for any low <= lowest_bit(x).
 inline void set_scaled(mpz_class& out, double x, int low) {
-    if (x == 0) return;
+    if (x == 0) {
+        mpz_set_ui(out.get_mpz_t(), 0);
+        return;
+    }
     int e = 0;
     const double m = std::frexp(x, &e);
     mpz_set_d(out.get_mpz_t(), std::ldexp(m, 53)); // exact: an integer below 2^53
@@ -186,7 +186,11 @@ struct scaled_points {
     int low = 0;
     std::array<int_vector, 3> P;
 
-    explicit scaled_points(const std::array<vec3, 3>& p) {
+    scaled_points() = default;
+    explicit scaled_points(const std::array<vec3, 3>& p) { assign(p); }
+
+    /// Into the integers already held (no allocation once they are long enough).
+    void assign(const std::array<vec3, 3>& p) {
         low = std::numeric_limits<int>::max();
         for (const vec3& x : p)
             for (int k = 0; k < 3; ++k)
@@ -198,23 +202,45 @@ struct scaled_points {
 
     /// The plane with normal n (in scaled space) through scaled point A, as an integer
     /// plane on unscaled points: n . (x / 2^low) - n . A, times a power of two.
-    void set_plane(exact_plane& pl, int_vector n, const int_vector& A) const {
-        mpz_class off = dot(n, A);
-        if (low < 0)
-            for (mpz_class& c : n) c <<= mp_bitcnt_t(-low);
-        else
-            off <<= mp_bitcnt_t(low);
-        pl.n = std::move(n);
-        pl.off = std::move(off);
+    void set_plane(exact_plane& pl, const int_vector& n, const int_vector& A) const {
+        mpz_ptr off = pl.off.get_mpz_t();
+        mpz_mul(off, n[0].get_mpz_t(), A[0].get_mpz_t());
+        mpz_addmul(off, n[1].get_mpz_t(), A[1].get_mpz_t());
+        mpz_addmul(off, n[2].get_mpz_t(), A[2].get_mpz_t());
+        for (std::size_t i = 0; i < 3; ++i)
+            mpz_mul_2exp(pl.n[i].get_mpz_t(), n[i].get_mpz_t(), mp_bitcnt_t(std::max(-low, 0)));
+        mpz_mul_2exp(off, off, mp_bitcnt_t(std::max(low, 0)));
         pl.has_exact = true;
+    }
+
+    /// (P[1] - P[0]) x (P[2] - P[0]) into n, with u and v as scratch.
+    void normal_into(int_vector& n, int_vector& u, int_vector& v) const {
+        for (std::size_t k = 0; k < 3; ++k) {
+            mpz_sub(u[k].get_mpz_t(), P[1][k].get_mpz_t(), P[0][k].get_mpz_t());
+            mpz_sub(v[k].get_mpz_t(), P[2][k].get_mpz_t(), P[0][k].get_mpz_t());
+        }
+        cross_into(n, u, v);
+    }
+};
+
+/// Per-thread scratch for building planes: each triangle's and face's plane then
+/// allocates only its own integers.
+struct plane_scratch {
+    scaled_points s;
+    int_vector u, v, n, m;
+    static plane_scratch& local() {
+        thread_local plane_scratch scratch;
+        return scratch;
     }
 };
 
 /// Oriented like orient3d(a, b, c, x): positive where that is positive.
 inline void make_exact(exact_plane& pl) {
     if (pl.has_exact) return;
-    const scaled_points s(pl.p);
-    s.set_plane(pl, cross(minus(s.P[1], s.P[0]), minus(s.P[2], s.P[0])), s.P[0]);
+    plane_scratch& w = plane_scratch::local();
+    w.s.assign(pl.p);
+    w.s.normal_into(w.n, w.u, w.v);
+    w.s.set_plane(pl, w.n, w.s.P[0]);
 }
 
 /// The value of plane pl at x as N / D, D > 0: a positive multiple of n . x - off.
@@ -417,8 +443,11 @@ inline exact_plane plane_through(const vec3& a, const vec3& b, const vec3& c) {
 /// triangle's, from plane_through()), its exact form too, from the same integers.
 inline std::array<exact_plane, 3> edge_planes(const std::array<vec3, 3>& tri,
                                               exact_plane* plane = nullptr) {
-    const scaled_points s(tri);
-    const int_vector n = cross(minus(s.P[1], s.P[0]), minus(s.P[2], s.P[0]));
+    plane_scratch& w = plane_scratch::local();
+    const scaled_points& s = w.s;
+    const int_vector& n = w.n;
+    w.s.assign(tri);
+    w.s.normal_into(w.n, w.u, w.v);
     if (plane != nullptr && !plane->has_exact) s.set_plane(*plane, n, s.P[0]);
     std::size_t axis = 0;
     for (std::size_t k = 1; k < 3; ++k)
@@ -432,11 +461,14 @@ inline std::array<exact_plane, 3> edge_planes(const std::array<vec3, 3>& tri,
         const std::size_t f = (e + 1) % 3;
         exact_plane& pl = out[e];
         // d x u for u = up * axis: component j is up * d_k, component k is -up * d_j.
-        int_vector m;
-        m[j] = s.P[f][k] - s.P[e][k];
-        m[k] = s.P[e][j] - s.P[f][j];
-        if (up < 0) m[j] = -m[j], m[k] = -m[k];
-        s.set_plane(pl, std::move(m), s.P[e]);
+        int_vector& m = w.m;
+        mpz_set_ui(m[axis].get_mpz_t(), 0);
+        mpz_sub(m[j].get_mpz_t(), s.P[f][k].get_mpz_t(), s.P[e][k].get_mpz_t());
+        mpz_sub(m[k].get_mpz_t(), s.P[e][j].get_mpz_t(), s.P[f][j].get_mpz_t());
+        if (up < 0)
+            mpz_neg(m[j].get_mpz_t(), m[j].get_mpz_t()),
+                mpz_neg(m[k].get_mpz_t(), m[k].get_mpz_t());
+        s.set_plane(pl, m, s.P[e]);
         const vec3 d = tri[f] - tri[e]; // within one rounding of the exact difference
         pl.normal = vec3{};
         pl.normal[int(j)] = up * d[int(k)];
