@@ -11,6 +11,7 @@
 
 #include <tbb/global_control.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -281,6 +282,49 @@ TEST_CASE("triangle insertion: the plane filters never contradict the exact sign
     }
     CHECK(wrong == 0);
     CHECK(decided > samples / 3); // the filter still decides the clear cases
+}
+
+TEST_CASE("triangle insertion: exact planes built one after another in shared scratch") {
+    // Each thread builds every plane in the same scratch integers: a plane must not keep
+    // anything of the one before, whose corners were longer, or nonzero where its own are
+    // zero. Triangle planes vanish at their corners and agree with orient3d elsewhere; edge
+    // planes vanish at their edge ends and are negative at the third corner.
+    namespace d = insertion::detail;
+    std::mt19937 rng(29);
+    std::uniform_real_distribution<double> u(-1, 1);
+    mpz_class N, D;
+    int checked = 0;
+    for (int i = 0; i < 600; ++i) {
+        const double scale = std::pow(10.0, 30 * (i % 3) - 30);
+        std::array<vec3, 3> tri;
+        for (vec3& p : tri) p = vec3{u(rng), u(rng), u(rng)} * scale;
+        if (i % 2 == 0) tri[0][i % 3] = 0, tri[1][(i + 1) % 3] = 0, tri[2][i % 3] = 0;
+        if (orient3d(tri[0], tri[1], tri[2], tri[0] + vec3{1, 2, 3} * scale) == 0) continue;
+        d::exact_plane plane = d::plane_through(tri[0], tri[1], tri[2]);
+        const auto edges = d::edge_planes(tri, &plane);
+        d::exact_plane alone = d::plane_through(tri[0], tri[1], tri[2]);
+        d::make_exact(alone);
+        for (const vec3& p : tri) {
+            d::plane_value(plane, to_rational(p), N, D);
+            CHECK(sgn(N) == 0);
+        }
+        const vec3 x = vec3{u(rng), u(rng), u(rng)} * scale;
+        const int side = orient3d(tri[0], tri[1], tri[2], x);
+        d::plane_value(plane, to_rational(x), N, D);
+        CHECK(sgn(N) == side);
+        d::plane_value(alone, to_rational(x), N, D);
+        CHECK(sgn(N) == side);
+        for (std::size_t e = 0; e < 3; ++e) {
+            for (std::size_t k : {e, (e + 1) % 3}) {
+                d::plane_value(edges[e], to_rational(tri[k]), N, D);
+                CHECK(sgn(N) == 0);
+            }
+            d::plane_value(edges[e], to_rational(tri[(e + 2) % 3]), N, D);
+            CHECK(sgn(N) < 0);
+        }
+        ++checked;
+    }
+    CHECK(checked > 500);
 }
 
 TEST_CASE("triangle insertion: homogeneous cut points agree with canonical rationals") {
@@ -628,6 +672,31 @@ TEST_CASE("winding number: labels from the coarse pass are those of the full acc
     }
     CHECK(near_half > 0); // the test reaches the points that matter
     CHECK(refined > 0);
+}
+
+TEST_CASE("tetmesh: labels taken along a Morton curve are each tet's own") {
+    // The labels visit the tets in a spatial order; each value must still be the winding
+    // number at its own tet's centroid, whatever the order the tets come in.
+    const io::surface s = io::read_surface(data("sphere.obj"));
+    const winding_number w(s.vertices, s.faces);
+    background b = make_background(s.vertices, {});
+    std::mt19937 rng(3);
+    std::shuffle(b.in.tets.begin(), b.in.tets.end(), rng);
+    std::vector<double> winding;
+    std::vector<std::uint8_t> inside;
+    tetmesh::detail::label(w, b.in.vertices, b.in.tets, winding, inside);
+    REQUIRE(winding.size() == b.in.tets.size());
+    std::size_t same = 0, in = 0;
+    for (std::size_t t = 0; t < b.in.tets.size(); ++t) {
+        const auto& tv = b.in.tets[t];
+        const auto& V = b.in.vertices;
+        const double expected = w.for_label((V[tv[0]] + V[tv[1]] + V[tv[2]] + V[tv[3]]) * 0.25);
+        same += winding[t] == expected && inside[t] == (expected > 0.5);
+        in += inside[t];
+    }
+    CHECK(same == b.in.tets.size());
+    CHECK(in > 0);
+    CHECK(in < b.in.tets.size());
 }
 
 TEST_CASE("winding number: 1 inside a closed surface, 0 outside, near and far") {

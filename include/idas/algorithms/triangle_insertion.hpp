@@ -706,6 +706,23 @@ struct cutting_planes {
     std::vector<triangle_planes> planes;
 };
 
+/// The tet and its local face whose corners are the triangle's, if the triangle is a face
+/// of the mesh (a face lies in the star of each of its corners).
+inline std::optional<std::pair<index_t, std::uint8_t>>
+face_spanned_by(const insertion_input& in, const tet_adjacency& adj, const tri_indices& tri) {
+    if (tri[0] == tri[1] || tri[1] == tri[2] || tri[2] == tri[0]) return std::nullopt;
+    for (index_t s = adj.star_first[tri[0]]; s < adj.star_first[tri[0] + 1]; ++s) {
+        const index_t t = adj.star[s];
+        const auto& tv = in.tets[t];
+        const std::uint8_t i1 = tet_local::index_of(tv, tri[1]),
+                           i2 = tet_local::index_of(tv, tri[2]);
+        if (i1 == tet_local::none || i2 == tet_local::none) continue;
+        // Local indices sum to 6: the face is opposite the fourth corner.
+        return std::pair{t, std::uint8_t(6 - tet_local::index_of(tv, tri[0]) - i1 - i2)};
+    }
+    return std::nullopt;
+}
+
 inline cutting_planes find_cutting_planes(const insertion_input& in, const tet_adjacency& adj) {
     const auto& V = in.vertices;
     const std::size_t m = in.tets.size();
@@ -770,23 +787,13 @@ inline cutting_planes find_cutting_planes(const insertion_input& in, const tet_a
                 // A triangle that is a face of the background (most of a dense input's are
                 // faces of its Delaunay tetrahedralization) meets the one or two tets on
                 // that face in area, and every other tet in an edge or a corner at most.
-                bool is_face = false;
-                const bool distinct = tri[0] != tri[1] && tri[1] != tri[2] && tri[2] != tri[0];
-                for (index_t s = adj.star_first[tri[0]]; distinct && s < adj.star_first[tri[0] + 1];
-                     ++s) {
-                    const index_t t = adj.star[s];
-                    const auto& tv = in.tets[t];
-                    const std::uint8_t i1 = tet_local::index_of(tv, tri[1]),
-                                       i2 = tet_local::index_of(tv, tri[2]);
-                    if (i1 == tet_local::none || i2 == tet_local::none) continue;
-                    const auto f = std::uint8_t(6 - tet_local::index_of(tv, tri[0]) - i1 - i2);
+                if (const auto face = face_spanned_by(in, adj, tri)) {
+                    const auto [t, f] = *face;
                     L.pairs.emplace_back(t, index_t(ti));
                     if (const index_t nb = adj.across[4 * t + f]; nb != invalid_index)
                         L.pairs.emplace_back(nb, index_t(ti));
-                    is_face = true;
-                    break;
+                    continue;
                 }
-                if (is_face) continue;
                 for (index_t s = adj.star_first[tri[0]]; s < adj.star_first[tri[0] + 1]; ++s)
                     visit(adj.star[s]);
                 for (std::size_t q = 0; q < L.queue.size(); ++q)
