@@ -63,6 +63,17 @@ int run_remesh(const remesh_arguments& a) {
                                                {"succeeded", r.phases[k].succeeded},
                                                {"lock_failures", r.phases[k].lock_failures}};
         j["output_stats"] = stats_json(res.output_stats);
+        if (a.options.trace) {
+            j["trace"] = json::array();
+            for (const auto& q : res.trace)
+                j["trace"].push_back(
+                    {{"iteration", q.iteration + 1},
+                     {"phase", idas::tool::remeshing_phase_names[q.phase]},
+                     {"faces", q.faces},
+                     {"min_angle_deg", q.min_angle_deg},
+                     {"min_angle_at", {q.min_angle_at[0], q.min_angle_at[1], q.min_angle_at[2]}},
+                     {"valence", {q.min_valence, q.max_valence}}});
+        }
         fmt::print("{}\n", j.dump(2));
     } else {
         fmt::print("{}: {} -> {} faces, target edge length {:.6g}, {} iterations on {} thread{} in "
@@ -74,6 +85,12 @@ int run_remesh(const remesh_arguments& a) {
                    r.swaps, r.smooths);
         fmt::print("{}\n", a.out);
         print_stats(res.output_stats);
+        for (const auto& q : res.trace)
+            fmt::print("  iteration {} {:8}: {} faces, smallest angle {:.2f} deg at ({:.6g}, "
+                       "{:.6g}, {:.6g}), valences {}-{}\n",
+                       q.iteration + 1, idas::tool::remeshing_phase_names[q.phase], q.faces,
+                       q.min_angle_deg, q.min_angle_at[0], q.min_angle_at[1], q.min_angle_at[2],
+                       q.min_valence, q.max_valence);
     }
     return 0;
 }

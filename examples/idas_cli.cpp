@@ -644,6 +644,8 @@ int run(int argc, char** argv) {
     remesh->add_flag("--deterministic", ra.options.deterministic,
                      "the same output at every thread count (deterministic rounds)");
     remesh->add_flag("--json", ra.as_json, "print one JSON object instead of text");
+    remesh->add_flag("--trace", ra.options.trace,
+                     "report the smallest angle and the valences after every phase");
     remesh
         ->add_option("--backend", ra.options.backend,
                      "connectivity backend: indexed or corner-table")

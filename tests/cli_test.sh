@@ -307,6 +307,14 @@ expect_field "remesh" "d['output_stats']['valence']['interior_valence6_fraction'
 expect_field "remesh" "abs(d['output_stats']['edge_length']['mean'] / d['target_edge_length'] - 1) < 0.1" True
 run info "$TMP/rem.ply" --json
 expect_field "remeshed" "d['euler_characteristic']" 2
+# --trace: the quality after every phase, the last one that of the file written.
+run remesh "$DATA/bunny.off" "$TMP/rem_trace.ply" --edge-length 0.02 --iterations 2 --threads 2 --trace --json
+expect_rc "remesh --trace" 0
+expect_field "remesh --trace" "[(q['iteration'], q['phase']) for q in d['trace']]" \
+    "[(1, 'split'), (1, 'collapse'), (1, 'swap'), (1, 'smooth'), (2, 'split'), (2, 'collapse'), (2, 'swap'), (2, 'smooth')]"
+expect_field "remesh --trace" "d['trace'][-1]['faces'] == d['output_faces']" True
+expect_field "remesh --trace" "abs(d['trace'][-1]['min_angle_deg'] - d['output_stats']['angles']['min_deg']) < 1e-6" True
+expect_field "remesh --trace" "d['trace'][-1]['valence'] == [d['output_stats']['valence']['min'], d['output_stats']['valence']['max']]" True
 run remesh "$DATA/bunny.off" "$TMP/rem_ct.ply" --edge-length 0.02 --iterations 3 --threads 2 --backend corner-table --json
 expect_rc "remesh --backend corner-table" 0
 expect_field "remesh --backend corner-table" "d['backend']" corner-table

@@ -12,10 +12,15 @@
 #include <idas/invariants/envelope.hpp>
 #endif
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
+#include <numbers>
 #include <optional>
+#include <ranges>
 #include <string>
+#include <vector>
 
 namespace idas::tool {
 
@@ -30,6 +35,7 @@ struct remesh_options {
     bool deterministic = false;            // lock::deterministic_rounds
     bool allow_self_intersections = false; // no_self_intersection off
     std::string backend = "indexed";
+    bool trace = false; // the mesh's quality after every phase (remeshed::trace)
     // The default output limit: about 15 GB while remeshing (connectivity, queues,
     // attributes and the written copy take some 150 bytes per face).
     std::uint64_t max_faces = 100'000'000;
@@ -56,15 +62,55 @@ inline double estimated_faces(const idas::io::surface& s, double target_length) 
     return area / (std::sqrt(3.0) / 4 * target_length * target_length);
 }
 
-/// Runs the remeshing; `progress` (may be null) hears (fraction done, note) after every phase.
+inline constexpr const char* remeshing_phase_names[] = {"split", "collapse", "swap", "smooth"};
+
+/// The mesh after one phase of one iteration (`--trace`): where a run loses quality.
+struct phase_quality {
+    unsigned iteration = 0;
+    std::size_t phase = 0; // index into remeshing_phase_names
+    std::size_t faces = 0;
+    double min_angle_deg = 180;
+    idas::vec3 min_angle_at{}; // the centroid of the face with the smallest angle
+    std::size_t min_valence = 0, max_valence = 0;
+};
+
+template <class Mesh>
+phase_quality quality_of(const Mesh& m) {
+    phase_quality q;
+    double worst = 4; // radians, above any angle
+    m.for_each_face([&](const typename Mesh::tuple& t) {
+        const auto& f = m.face_vertices(t.fid);
+        ++q.faces;
+        const double a = idas::algorithms::detail::min_angle(m, f[0], f[1], f[2]);
+        if (a < worst)
+            worst = a,
+            q.min_angle_at = (m.position(f[0]) + m.position(f[1]) + m.position(f[2])) / 3.0;
+    });
+    q.min_angle_deg = worst * 180 / std::numbers::pi;
+    q.min_valence = std::numeric_limits<std::size_t>::max();
+    m.for_each_vertex([&](const typename Mesh::tuple& t) {
+        const auto n = static_cast<std::size_t>(std::ranges::distance(m.vertex_faces(t.vid))) +
+                       (m.is_boundary_vertex(t.vid) ? 1 : 0); // edges: one more than faces
+        q.min_valence = std::min(q.min_valence, n), q.max_valence = std::max(q.max_valence, n);
+    });
+    if (q.faces == 0) q.min_valence = 0;
+    return q;
+}
+
+/// Runs the remeshing; `progress` (may be null) hears (fraction done, note) after every phase,
+/// and `trace` (may be null) gets the mesh's quality after every phase.
 template <class Lock, class Mesh, class Progress, class... Extra>
 idas::algorithms::remeshing_report
 remesh_with(Mesh& m, const idas::algorithms::remeshing_options& o, unsigned threads,
-            const Progress* progress, Extra... extra) {
+            const Progress* progress, std::vector<phase_quality>* trace, Extra... extra) {
     idas::exec_options exec;
     exec.threads = threads;
-    static constexpr const char* phases[] = {"split", "collapse", "swap", "smooth"};
+    static constexpr const auto& phases = remeshing_phase_names;
     auto observer = [&](std::size_t phase, unsigned iteration, const idas::run_report&) {
+        if (trace) {
+            trace->push_back(quality_of(m));
+            trace->back().iteration = iteration, trace->back().phase = phase % 4;
+        }
         if (!progress) return;
         const double done = double(iteration * 4 + phase + 1) / double(4 * o.iterations);
         (*progress)(done, "iteration " + std::to_string(iteration + 1) + "/" +
@@ -83,6 +129,7 @@ struct remeshed {
     std::optional<double> envelope; // absolute
     mesh_stats input_stats, output_stats;
     double check_seconds = 0;
+    std::vector<phase_quality> trace; // with remesh_options::trace
 };
 
 /// Remeshes `s` (read from `source`, which error messages name) on the mesh type Mesh;
@@ -123,6 +170,7 @@ remeshed remesh_surface(const idas::io::surface& s, const std::string& source,
     const idas::no_self_intersection guard =
         index ? idas::no_self_intersection(*index) : idas::no_self_intersection();
     phases.lap("self_intersection_index");
+    std::vector<phase_quality>* const tr = a.trace ? &out.trace : nullptr;
     if (a.envelope) {
 #if IDAS_CLI_HAVE_CGAL
         out.envelope = *a.envelope * out.input_stats.diagonal;
@@ -130,19 +178,20 @@ remeshed remesh_surface(const idas::io::surface& s, const std::string& source,
             throw idas::input_error(
                 fmt::format("--envelope {} is too large for {}", *a.envelope, source));
         const idas::envelope env(s.vertices, s.faces, *out.envelope);
-        out.report =
-            a.deterministic
-                ? remesh_with<idas::lock::deterministic_rounds>(m, o, a.threads, progress, env,
-                                                                guard)
-                : remesh_with<idas::lock::vertex_try_lock>(m, o, a.threads, progress, env, guard);
+        out.report = a.deterministic
+                         ? remesh_with<idas::lock::deterministic_rounds>(m, o, a.threads, progress,
+                                                                         tr, env, guard)
+                         : remesh_with<idas::lock::vertex_try_lock>(m, o, a.threads, progress, tr,
+                                                                    env, guard);
 #else
         throw idas::input_error("--envelope needs a build with CGAL");
 #endif
     } else {
         out.report =
             a.deterministic
-                ? remesh_with<idas::lock::deterministic_rounds>(m, o, a.threads, progress, guard)
-                : remesh_with<idas::lock::vertex_try_lock>(m, o, a.threads, progress, guard);
+                ? remesh_with<idas::lock::deterministic_rounds>(m, o, a.threads, progress, tr,
+                                                                guard)
+                : remesh_with<idas::lock::vertex_try_lock>(m, o, a.threads, progress, tr, guard);
     }
     phases.lap("remeshing", out.report.setup_seconds, out.report.tail_seconds);
     std::tie(out.mesh.vertices, out.mesh.faces) = m.to_arrays();

@@ -3,6 +3,8 @@
 #include "../test_support.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <numbers>
 #include <optional>
 #include <tuple>
 #include <vector>
@@ -262,7 +264,8 @@ TEST_CASE_TEMPLATE("every smoothing pass moves every free vertex", Mesh, IDAS_TR
             isotropic_remeshing<Mesh>::run(copy, o, {.threads = threads, .max_retry = 0});
         std::size_t free = 0; // blub is closed: every vertex is free to move
         copy.for_each_vertex([&](const tri_tuple&) { ++free; });
-        CHECK(r.smooths >= free - free / 50); // a few moves may be refused (normal flip)
+        // A few moves are refused (a normal flip, or a thin angle in the ring: 7% on blub).
+        CHECK(r.smooths >= free - free / 10);
         const run_report& smooth = r.phases[3];
         CHECK(smooth.pushed == smooth.popped + smooth.purged);
         CHECK(smooth.popped ==
@@ -333,3 +336,76 @@ TEST_CASE_TEMPLATE("parallel remeshing with the envelope invariant stays within 
     }
 }
 #endif
+
+TEST_CASE_TEMPLATE("a smoothing pass never thins the smallest angle below 30 degrees", Mesh,
+                   IDAS_TRI_MESHES) {
+    // Smoothing changes only the faces around the vertex it moves, and refuses a move that
+    // makes their smallest angle smaller unless it stays above 30 degrees: so no smoothing
+    // pass lowers the mesh's smallest angle once it is below 30 degrees. Projection onto a
+    // crease of the input thinned a cap at every pass before (armadillo x16, 16 threads:
+    // 13.8, 9.3, then 7.5 degrees).
+    for (const auto& [file, threads] : {std::pair{"armadillo.obj", 8u}, {"bunny.obj", 1u}}) {
+        CAPTURE(file);
+        CAPTURE(threads);
+        auto m = idas::test::load<Mesh>(file);
+        remeshing_options o;
+        o.target_length = 0.005 * diagonal(m);
+        o.iterations = 3;
+        std::vector<std::pair<std::size_t, double>> after_phase; // phase, smallest angle
+        isotropic_remeshing<Mesh>::run_observed(
+            m, o, {.threads = threads}, [&](std::size_t phase, unsigned, const run_report&) {
+                after_phase.emplace_back(phase, measure(m).min_angle);
+            });
+        REQUIRE(after_phase.size() == 4 * o.iterations);
+        for (std::size_t i = 1; i < after_phase.size(); ++i)
+            if (after_phase[i].first == 3) {
+                const double before = after_phase[i - 1].second, now = after_phase[i].second;
+                CAPTURE(i);
+                CHECK(now >= std::min(before, 30.0) - 1e-9);
+            }
+    }
+}
+
+/// Where the smoothing spec's `before` would move the centre of a hexagonal fan (radius 1 in
+/// the plane z = 0) when the input it projects onto is `input` (nothing if the move is
+/// refused).
+template <class Mesh>
+std::optional<vec3> smoothed_centre(const std::vector<vec3>& input_v,
+                                    const std::vector<tri_indices>& input_f) {
+    std::vector<vec3> p{{0.05, 0.02, 0}};
+    std::vector<tri_indices> faces;
+    for (index_t i = 0; i < 6; ++i) {
+        const double a = double(i) * std::numbers::pi / 3;
+        p.push_back({std::cos(a), std::sin(a), 0});
+        faces.push_back({0, 1 + i, 1 + (i + 1) % 6});
+    }
+    Mesh m(p, faces);
+    remeshing_state s;
+    s.L = 1;
+    s.frozen = m.template add_vertex_attribute<std::uint8_t>("frozen", 0);
+    s.feature = m.template add_vertex_attribute<std::uint8_t>("feature", 0);
+    s.boundary = m.template add_vertex_attribute<std::uint8_t>("boundary", 0);
+    s.smoothed = m.template add_vertex_attribute<std::uint32_t>("smoothed", 0);
+    for (index_t v = 1; v < 7; ++v) m.attribute(s.boundary).set(v, 1);
+    s.input = std::make_shared<const triangle_aabb_tree>(input_v, input_f);
+    remesh_smooth_spec<> smooth{{}, s, true};
+    smooth.prepare(m);
+    const auto c = smooth.before(op::smooth_vertex{}, m, m.tuple_from_vertex(0));
+    return c ? std::optional<vec3>(c->position) : std::nullopt;
+}
+
+TEST_CASE_TEMPLATE("smoothing refuses a projected move that thins its ring", Mesh,
+                   IDAS_TRI_MESHES) {
+    // Onto an input that holds the whole fan, the centre moves towards the middle.
+    const auto centred = smoothed_centre<Mesh>({{-5, -5, 0}, {5, -5, 0}, {0, 5, 0}}, {{0, 1, 2}});
+    REQUIRE(centred);
+    CHECK(norm(*centred) < norm(vec3{0.05, 0.02, 0}));
+    // Onto an input that starts at x = 0.9 (a crease's far side), projection would put the
+    // centre next to the rim vertex (1, 0, 0): two triangles of about 5 degrees.
+    const auto pulled = smoothed_centre<Mesh>({{0.9, -5, 0}, {0.9, 5, 0}, {6, 0, 0}}, {{0, 1, 2}});
+    CHECK(!pulled);
+    // Onto an input that starts at x = 0.2, the ring's smallest angle stays above 30 degrees.
+    const auto near = smoothed_centre<Mesh>({{0.2, -5, 0}, {0.2, 5, 0}, {6, 0, 0}}, {{0, 1, 2}});
+    REQUIRE(near);
+    CHECK(std::abs((*near)[0] - 0.2) < 1e-9);
+}

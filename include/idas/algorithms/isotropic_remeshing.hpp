@@ -486,7 +486,7 @@ struct remesh_smooth_spec : detail::with_invariants<Extra...> {
     std::optional<smooth_cache> before(op::smooth_vertex, const Mesh& m,
                                        const typename Mesh::tuple& t) const {
         const auto q = target(m, t.vid);
-        if (!q) return std::nullopt;
+        if (!q || !keeps_angles(m, t.vid, *q)) return std::nullopt;
         std::optional<smooth_cache> c(std::in_place);
         c->position = *q;
         if (s.transfer && !s.transfer->smooth_before(m, t.vid, *q, c->carried)) c.reset();
@@ -519,6 +519,33 @@ struct remesh_smooth_spec : detail::with_invariants<Extra...> {
         vec3 q = p + (c - p) - n * dot(c - p, n); // tangential part of the move only
         if (project && s.input) q = s.input->closest_point(q).point;
         return q;
+    }
+    /// Projection onto a piecewise flat input pulls a vertex near one of its creases onto
+    /// the crease, in line with the neighbours already there: a thin cap that each iteration
+    /// made thinner (armadillo x16 on 8 and 16 threads: 13.8 -> 9.3 -> 7.5 degrees). A move
+    /// may make the ring's smallest angle smaller only while it stays wide.
+    /// Angles compared by their cosines (the law of cosines: no arc tangents on this path).
+    template <class Mesh>
+    static bool keeps_angles(const Mesh& m, index_t v, const vec3& q) {
+        constexpr double cos_wide = 0.8660254037844387; // 30 degrees
+        auto largest_cosine_with_v_at = [&](const vec3& at) {
+            double largest = -1;
+            for (index_t f : m.vertex_faces(v)) {
+                const auto& fv = m.face_vertices(f);
+                auto p = [&](index_t w) { return w == v ? at : m.position(w); };
+                const vec3 a = p(fv[0]), b = p(fv[1]), c = p(fv[2]);
+                const double ab = squared_norm(b - a), bc = squared_norm(c - b),
+                             ca = squared_norm(a - c);
+                for (const auto [x, y, opposite] :
+                     {std::array{ab, ca, bc}, std::array{ab, bc, ca}, std::array{bc, ca, ab}}) {
+                    const double d = 2 * std::sqrt(x * y);
+                    largest = std::max(largest, d > 0 ? (x + y - opposite) / d : 1.0);
+                }
+            }
+            return largest;
+        };
+        const double then = largest_cosine_with_v_at(q);
+        return then <= cos_wide || then <= largest_cosine_with_v_at(m.position(v));
     }
     template <class Mesh>
     bool after(op::smooth_vertex, Mesh& m, const op_result<typename Mesh::tuple>& r,
