@@ -409,3 +409,23 @@ TEST_CASE_TEMPLATE("smoothing refuses a projected move that thins its ring", Mes
     REQUIRE(near);
     CHECK(std::abs((*near)[0] - 0.2) < 1e-9);
 }
+
+TEST_CASE_TEMPLATE("smoothing entries that lost their races are dealt out again in disjoint sets",
+                   Mesh, IDAS_TRI_MESHES) {
+    // 16 threads on this machine's cores, no retry: every lost race sets its entry aside.
+    // Parts merge three times (16, 8, 4, 2 queues), then the entries whose regions do not
+    // meet are dealt out to all workers again. Every entry is accounted for, either dealt
+    // out again or left to the serial pass, and the mesh stays consistent.
+    auto m = idas::test::load<Mesh>("armadillo.obj");
+    remeshing_options o;
+    o.target_length = 0.01 * diagonal(m);
+    o.iterations = 2;
+    const auto r = isotropic_remeshing<Mesh>::run(m, o, {.threads = 16, .max_retry = 0});
+    const run_report& smooth = r.phases[3];
+    CHECK(smooth.lock_failures > 0);
+    CHECK(smooth.retaken + smooth.deferred_to_serial == smooth.lock_failures);
+    CHECK(smooth.pushed == smooth.popped + smooth.purged);
+    CHECK(smooth.popped == smooth.stale + smooth.skipped + smooth.attempted + smooth.lock_failures);
+    const auto e = find_inconsistency(m);
+    REQUIRE_MESSAGE(!e, *e);
+}
