@@ -105,7 +105,6 @@ remesh_with(Mesh& m, const idas::algorithms::remeshing_options& o, unsigned thre
             const Progress* progress, std::vector<phase_quality>* trace, Extra... extra) {
     idas::exec_options exec;
     exec.threads = threads;
-    static constexpr const auto& phases = remeshing_phase_names;
     auto observer = [&](std::size_t phase, unsigned iteration, const idas::run_report&) {
         if (trace) {
             trace->push_back(quality_of(m));
@@ -114,7 +113,8 @@ remesh_with(Mesh& m, const idas::algorithms::remeshing_options& o, unsigned thre
         if (!progress) return;
         const double done = double(iteration * 4 + phase + 1) / double(4 * o.iterations);
         (*progress)(done, "iteration " + std::to_string(iteration + 1) + "/" +
-                              std::to_string(o.iterations) + ", " + phases[phase % 4]);
+                              std::to_string(o.iterations) + ", " +
+                              remeshing_phase_names[phase % 4]);
     };
     return idas::algorithms::isotropic_remeshing<Mesh, Lock, idas::queue::dary_heap<4>,
                                                  idas::partition::morton,

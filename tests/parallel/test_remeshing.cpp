@@ -158,6 +158,17 @@ TEST_CASE_TEMPLATE("valence flips next to a frozen border do not thin its triang
     CHECK(q.valence6 > 0.85);
 }
 
+/// A remeshing state for one spec's hooks on a small mesh: target length 1, the vertex
+/// attributes the specs read, all zero.
+template <class Mesh>
+void attach_unit_state(Mesh& m, remeshing_state& s) {
+    s.L = 1;
+    s.frozen = m.template add_vertex_attribute<std::uint8_t>("frozen", 0);
+    s.feature = m.template add_vertex_attribute<std::uint8_t>("feature", 0);
+    s.boundary = m.template add_vertex_attribute<std::uint8_t>("boundary", 0);
+    s.smoothed = m.template add_vertex_attribute<std::uint32_t>("smoothed", 0);
+}
+
 /// What the collapse spec's `before` answers for the short edge ab (L = 1) of a fan: a at
 /// `height` above the plane of the rest, b with a neighbour 1.4 from a (so only b may
 /// stay), the ring frozen on request. Both orientations of the edge, a's end first.
@@ -170,10 +181,7 @@ std::vector<std::optional<vec3>> collapse_fan(double height, bool frozen_ring) {
         p,
         {{a, b, 3}, {b, 2, 3}, {a, 3, 4}, {a, 4, 5}, {a, 5, 6}, {a, 6, 7}, {a, 7, b}, {b, 7, 2}});
     remeshing_state s;
-    s.L = 1;
-    s.frozen = m.template add_vertex_attribute<std::uint8_t>("frozen", 0);
-    s.feature = m.template add_vertex_attribute<std::uint8_t>("feature", 0);
-    s.boundary = m.template add_vertex_attribute<std::uint8_t>("boundary", 0);
+    attach_unit_state(m, s);
     if (frozen_ring)
         for (index_t v = 2; v < 8; ++v)
             m.attribute(s.boundary).set(v, 1), m.attribute(s.frozen).set(v, 1);
@@ -381,11 +389,7 @@ std::optional<vec3> smoothed_centre(const std::vector<vec3>& input_v,
     }
     Mesh m(p, faces);
     remeshing_state s;
-    s.L = 1;
-    s.frozen = m.template add_vertex_attribute<std::uint8_t>("frozen", 0);
-    s.feature = m.template add_vertex_attribute<std::uint8_t>("feature", 0);
-    s.boundary = m.template add_vertex_attribute<std::uint8_t>("boundary", 0);
-    s.smoothed = m.template add_vertex_attribute<std::uint32_t>("smoothed", 0);
+    attach_unit_state(m, s);
     for (index_t v = 1; v < 7; ++v) m.attribute(s.boundary).set(v, 1);
     s.input = std::make_shared<const triangle_aabb_tree>(input_v, input_f);
     remesh_smooth_spec<> smooth{{}, s, true};

@@ -199,64 +199,6 @@ public:
     /// Entries per queue below which the set-aside entries go straight to the serial pass.
     static constexpr std::size_t set_aside_worth_a_phase = 16;
 
-    /// Once parts can merge no further: the set-aside entries whose regions are pairwise
-    /// disjoint, taken greedily in their order, are dealt out to all workers in turn, and
-    /// the others wait for the next such phase. What is left lost its races in crowded
-    /// places, where parts' borders no longer matter (on 16 threads a tet mesh's smoothing
-    /// left 3,900 vertex entries, a sixth of the phase's time, to the serial pass after
-    /// three merged phases). Only for queues without an order (smoothing): an ordered run's
-    /// set-aside entries keep their one global order in the serial pass. At most
-    /// `independent_phases` times, and only while a phase gets two entries per worker.
-    bool deal_independent_set() {
-        if constexpr (pops_in_priority_order<Queue> ||
-                      !requires(Lock & l, index_t v) { l.try_acquire(v, std::uint32_t{}); }) {
-            return false;
-        } else {
-            if (independent_phases_done_ == independent_phases) return false;
-            // Each entry claims under an id of its own (after the workers' ids), so a vertex
-            // that an earlier chosen region holds is busy, and one of its own is not.
-            std::uint32_t id = parts();
-            held_vertices held;
-            auto take = [&](index_t v) {
-                const int r = locks().try_acquire(v, id);
-                if (r > 0) held.push_back(v);
-                return r >= 0;
-            };
-            std::vector<entry> chosen, rest;
-            std::vector<index_t> taken; // every vertex the chosen regions hold
-            for (const entry& e : final_pass_) {
-                bool free = true;
-                ++id;
-                ops::dispatch(e.kind, [&](auto op) {
-                    tuple t = e.tuple;
-                    held.clear();
-                    free = claim_footprint<decltype(op)>(t, take) != claim_result::busy;
-                    if (!free) // partly claimed: give back what this entry took
-                        for (index_t v : held) locks().unlock(v, id);
-                    else
-                        taken.insert(taken.end(), held.begin(), held.end());
-                });
-                (free ? chosen : rest).push_back(e);
-            }
-            for (index_t v : taken) locks().unlock(v, id);
-            if (chosen.size() < 2 * std::size_t(parts())) return false;
-            ++independent_phases_done_;
-            for (auto& w : workers_)
-                w->others_checked_below = -std::numeric_limits<double>::infinity();
-            const unsigned P = parts();
-            for (std::size_t i = 0; i < chosen.size(); ++i) {
-                entry e = chosen[i];
-                e.retries = 0;
-                workers_[i % P]->q.push(e);
-            }
-            report_.pushed += chosen.size(), retaken_ += chosen.size();
-            final_pass_ = std::move(rest);
-            return true;
-        }
-    }
-    static constexpr unsigned independent_phases = 8;
-    unsigned independent_phases_done_ = 0;
-
     /// The one step of every phase. `claimer.claim(Op{}, tuple&)` holds the operation's
     /// region (or says why not) and `claimer.release()` lets it go; `on_success(Op{},
     /// result)` runs while the region is still held. Shared: other workers may steal from
@@ -342,6 +284,63 @@ public:
     }
 
 private:
+    /// Once parts can merge no further: the set-aside entries whose regions are pairwise
+    /// disjoint, taken greedily in their order, are dealt out to all workers in turn, and
+    /// the others wait for the next such phase. What is left lost its races in crowded
+    /// places, where parts' borders no longer matter (on 16 threads a tet mesh's smoothing
+    /// left 3,900 vertex entries, a sixth of the phase's time, to the serial pass after
+    /// three merged phases). Only for queues without an order (smoothing): an ordered run's
+    /// set-aside entries keep their one global order in the serial pass. At most
+    /// `independent_phases` times, and only while a phase gets two entries per worker.
+    bool deal_independent_set() {
+        if constexpr (pops_in_priority_order<Queue> ||
+                      !requires(Lock & l, index_t v) { l.try_acquire(v, std::uint32_t{}); }) {
+            return false;
+        } else {
+            if (independent_phases_done_ == independent_phases) return false;
+            // Each entry claims under an id of its own (after the workers' ids), so a vertex
+            // that an earlier chosen region holds is busy, and one of its own is not.
+            std::uint32_t id = parts();
+            held_vertices held;
+            auto take = [&](index_t v) {
+                const int r = locks().try_acquire(v, id);
+                if (r > 0) held.push_back(v);
+                return r >= 0;
+            };
+            std::vector<entry> chosen, rest;
+            std::vector<index_t> taken; // every vertex the chosen regions hold
+            for (const entry& e : final_pass_) {
+                bool free = true;
+                ++id;
+                ops::dispatch(e.kind, [&](auto op) {
+                    tuple t = e.tuple;
+                    held.clear();
+                    free = claim_footprint<decltype(op)>(t, take) != claim_result::busy;
+                    if (!free) // partly claimed: give back what this entry took
+                        for (index_t v : held) locks().unlock(v, id);
+                    else
+                        taken.insert(taken.end(), held.begin(), held.end());
+                });
+                (free ? chosen : rest).push_back(e);
+            }
+            for (index_t v : taken) locks().unlock(v, id);
+            if (chosen.size() < 2 * std::size_t(parts())) return false;
+            ++independent_phases_done_;
+            for (auto& w : workers_)
+                w->others_checked_below = -std::numeric_limits<double>::infinity();
+            const unsigned P = parts();
+            for (std::size_t i = 0; i < chosen.size(); ++i) {
+                entry e = chosen[i];
+                e.retries = 0;
+                workers_[i % P]->q.push(e);
+            }
+            report_.pushed += chosen.size(), retaken_ += chosen.size();
+            final_pass_ = std::move(rest);
+            return true;
+        }
+    }
+    static constexpr unsigned independent_phases = 8;
+
     struct no_action {
         template <class Op, class R>
         constexpr void operator()(Op, const R&) const noexcept {}
@@ -596,7 +595,8 @@ private:
     std::vector<std::uint32_t> part_;
     std::unique_ptr<Lock> locks_;
     std::vector<entry> final_pass_;
-    unsigned merged_levels_ = 0; // retake_set_aside: parts merged in pairs so many times
+    unsigned merged_levels_ = 0;           // retake_set_aside: parts merged in pairs so many times
+    unsigned independent_phases_done_ = 0; // deal_independent_set: phases so far
     std::size_t retaken_ = 0;
     tbb::spin_mutex final_mutex_;
 };
