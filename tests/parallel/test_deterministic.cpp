@@ -52,7 +52,7 @@ std::string counts(const run_report& r) {
     std::ostringstream os;
     os << r.pushed << ' ' << r.popped << ' ' << r.purged << ' ' << r.stale << ' ' << r.skipped
        << ' ' << r.attempted << ' ' << r.succeeded << ' ' << r.refused << ' ' << r.rounds << ' '
-       << r.faces << ' ' << r.vertices;
+       << r.faces << ' ' << r.vertices << ' ' << r.grouped;
     return os.str();
 }
 
@@ -71,6 +71,7 @@ void check_decimation(const char* file, double ratio) {
         CHECK(std::int64_t(m.n_faces()) <= spec.target_faces);
         CHECK(std::int64_t(m.n_faces()) >= spec.target_faces - 1);
         CHECK(r.rounds > 1);
+        CHECK(r.grouped == 0); // a goal keeps every operation in the rounds' global order
         CHECK(r.threads == threads);
         const auto e = find_inconsistency(m);
         CHECK_MESSAGE(!e, *e);
@@ -205,6 +206,38 @@ void check_same_harmonic_file(const std::vector<vec3>& points,
 
 TEST_CASE("deterministic rounds: harmonic triangulation of 10k points, the same MSH file") {
     check_same_harmonic_file(io::gaussian_points(10000, 7), {1u, 2u, 4u, 8u});
+}
+
+// Phases that add no simplex and have no goal (the 3-2 flips, the smoothing passes) run
+// most of their entries in groups of shards before any round, and still do the same
+// thing at every thread count; the seeded flips (2-3 swaps add a tet) run in rounds only.
+TEST_CASE("deterministic rounds: harmonic phases without new simplices run in groups first") {
+    const auto points = io::gaussian_points(40000, 5);
+    std::vector<std::string> reference;
+    for (const unsigned threads : {1u, 3u}) {
+        CAPTURE(threads);
+        auto m = test::delaunay_mesh(points);
+        harmonic_options o;
+        o.exec.threads = threads;
+        std::vector<std::string> phases;
+        auto observe = [&](int phase, unsigned, const run_report& r) {
+            CAPTURE(phase);
+            if (phase == 2) {
+                CHECK(r.grouped == 0);
+            } else {
+                CHECK(r.grouped > r.attempted / 2);
+                CHECK(r.grouped <= r.attempted);
+            }
+            phases.push_back(counts(r));
+        };
+        harmonic_triangulation<tet_mesh<>, det>::run_observed(m, o, observe);
+        CHECK(find_inconsistency(m, true) == std::nullopt);
+        CHECK(test::inverted_or_flat_tets(m) == 0);
+        if (threads == 1)
+            reference = phases;
+        else
+            CHECK(phases == reference);
+    }
 }
 
 // The same on fewer points, small enough for the ThreadSanitizer run in CI (the case above

@@ -112,10 +112,25 @@ concept filtered_envelope = requires(const E& e, const vec3& p, typename E::filt
 template <filtered_envelope Envelope>
 struct proven_in_envelope {
     const Envelope* envelope = nullptr;
+    /// What the filter proves depends on where its cache's candidates and walks start, so
+    /// a cache kept from operation to operation (faster: the last operation was nearby)
+    /// makes a verdict depend on what ran before on the same thread. A deterministic run
+    /// starts each operation with an empty cache.
+    bool fresh_cache_per_operation = false;
     struct state {};
     template <class Op, class Mesh, class Result>
     bool after(Op, const Mesh& m, const Result& r, state&) const {
+        if (fresh_cache_per_operation) {
+            typename Envelope::filter_cache cache;
+            return all_proven(m, r, cache);
+        }
         thread_local typename Envelope::filter_cache cache;
+        return all_proven(m, r, cache);
+    }
+
+private:
+    template <class Mesh, class Result>
+    bool all_proven(const Mesh& m, const Result& r, typename Envelope::filter_cache& cache) const {
         for (const auto& t : r.cells) {
             const auto& fv = m.face_vertices(t.fid);
             if (envelope->fast_verdict(m.position(fv[0]), m.position(fv[1]), m.position(fv[2]),
@@ -133,10 +148,11 @@ struct soup_simplification_spec {
     const Envelope* envelope = nullptr;
     vertex_attribute<std::uint8_t> frozen; ///< on a border of the cut: never moves
     vertex_attribute<index_t> origin;      ///< the soup vertex a copy stands for
+    bool deterministic = false;            ///< verdicts independent of the thread's history
 
     auto invariants() const {
         return invariant_set<no_normal_flip, proven_in_envelope<Envelope>>(
-            no_normal_flip{}, proven_in_envelope<Envelope>{envelope});
+            no_normal_flip{}, proven_in_envelope<Envelope>{envelope, deterministic});
     }
 
     /// A push that drops edges with both ends frozen (nothing could collapse them).
@@ -239,7 +255,8 @@ simplify_soup(const std::vector<vec3>& V, const std::vector<tri_indices>& F,
             if (m.is_boundary_vertex(t.vid) || cut.split[t.vid]) fr.raw(t.vid) = 1;
         });
     }
-    soup_simplification_spec<Envelope> spec{&envelope, frozen.handle, origin.handle};
+    soup_simplification_spec<Envelope> spec{&envelope, frozen.handle, origin.handle,
+                                            deterministic_policy<Lock>};
     executor<soup_simplification_spec<Envelope>, tri_mesh<>, Lock, queue::dary_heap<4>>::run(
         m, spec, exec);
     return m.to_arrays();

@@ -113,6 +113,10 @@ class deterministic_engine {
         // equals region_tag. 16 bits a vertex; cleared when the tag wraps.
         std::vector<std::uint16_t> region_seen;
         std::uint16_t region_tag = 0;
+        // run_group's queue, in plain priority order (ties by slot), and what its
+        // successes changed of the live counts.
+        typename queue::binary_heap::template type<typename Run::entry> group_queue;
+        std::int64_t group_face_delta = 0, group_vertex_delta = 0;
     };
     /// What became of a candidate this round; all but `ran` go back to their shard.
     enum class fate : std::uint8_t { waits, beaten, blocked, won_now, wins, ran };
@@ -137,6 +141,12 @@ public:
         seed();
         live_ = hooks::counts(m_);
         const double seeded = seeding.seconds();
+        if constexpr (own_shards_first_applies) {
+            if (!hooks::should_stop(spec_, live_)) {
+                hooks::quiescent(spec_, m_, live_);
+                own_shards_first();
+            }
+        }
         while (!hooks::should_stop(spec_, live_)) {
             // Between rounds no operation runs, and the counts are the same at any thread
             // count, so what the spec refits here does not depend on the threads either.
@@ -161,7 +171,8 @@ private:
 
     /// Initial entries go to the shard of their tuple's vertex (a Morton part).
     void seed() {
-        const std::vector<std::uint32_t> part = Run::partition_type::assign(m_, K);
+        part_ = Run::partition_type::assign(m_, K);
+        const std::vector<std::uint32_t>& part = part_;
         if constexpr (hooks::seeds_per_vertex && !initial_hook<Spec, Mesh>) {
             std::vector<std::vector<index_t>> by_shard(K);
             for (index_t v = 0; v < m_.vertex_slots(); ++v)
@@ -192,6 +203,104 @@ private:
                 sh.report.pushed += by_shard[s].size();
             });
         }
+    }
+
+    // -------------------------------------------------- shards on their own ----
+
+    /// Phases whose operations add no simplex (smoothing, collapses, 3-2 flips) first let
+    /// groups of shards run their own entries, those whose lock region lies in the group's
+    /// vertices, the groups in parallel. Such an entry reads and writes only what its
+    /// region freezes (claim.hpp), and no other group's entry holds any of it, so what a
+    /// group does depends on its own entries only, never on the threads or on timing; no
+    /// vertex is added, so every vertex stays in its shard. An entry whose region crosses
+    /// into another group (or claims space, which no group owns) waits for the next level,
+    /// where neighbouring groups on the Morton curve are merged in pairs (64 shards, then
+    /// 32 groups, 16, 8, 4, 2), and what crosses even those waits in its shard's front for
+    /// the rounds. Rounds alone walk each region about twice (half the candidates of a
+    /// smoothing round lose to an overlapping better one) and run a few hundred winners
+    /// between serial steps: harmonic smoothing of 200k points took 2.9 times as long as
+    /// the try-lock executor's, with the groups first 1.5 times (bench/RESULTS.md). Not for
+    /// a spec with a goal (`remaining`): its count must stop exactly where a serial order
+    /// would; nor for one whose invariant claims space (every region would cross).
+    static constexpr bool own_shards_first_applies =
+        !ops::adds_simplices && !remaining_hook<Spec> &&
+        !std::remove_cvref_t<decltype(spec_invariants(std::declval<Spec&>()))>::claims_space;
+    static constexpr unsigned group_levels = 6; // groups of 1, 2, 4, ... 32 shards
+
+    void own_shards_first() {
+        const std::size_t V = part_.size();
+        for (unsigned level = 0; level < group_levels; ++level) {
+            const unsigned width = 1u << level;
+            parallel_chunks(pool_, K / width, 1, [&](std::size_t b, std::size_t e, unsigned th) {
+                for (std::size_t g = b; g < e; ++g)
+                    run_group(static_cast<unsigned>(g), level, V, *threads_[th], th);
+            });
+        }
+        std::uint64_t successes = 0;
+        for (auto& t : threads_) {
+            successes += t->report.succeeded;
+            live_.faces += t->group_face_delta, live_.vertices += t->group_vertex_delta;
+            t->group_face_delta = t->group_vertex_delta = 0;
+        }
+        live_.successes = successes;
+    }
+
+    /// Group g of `level` (shards g * 2^level and on) runs every entry of its shards,
+    /// queued or waiting, and what they renew, in priority order with ties by slot (not
+    /// spread, as the rounds need: neighbours then follow each other, which the cache
+    /// likes). What crosses out of the group waits in its vertex's shard's front.
+    void run_group(unsigned g, unsigned level, std::size_t V, thread_state& me, unsigned th) {
+        const unsigned width = 1u << level, first = g * width;
+        auto& heap = me.group_queue;
+        for (unsigned s = first; s < first + width; ++s) {
+            shard& sh = shards_[s];
+            for (const entry& e : sh.front) heap.push(e);
+            sh.front.clear();
+            for (entry e; sh.q.pop(e);) heap.push(e);
+        }
+        op_context<Mesh>& ctx = *me.ctx;
+        ctx.worker = th;
+        auto in_group = [&](index_t v) { return v < V && (part_[v] >> level) == g; };
+        shard& home = shards_[first]; // its report counts the group's work
+        for (typename Run::entry popped; heap.pop(popped);) {
+            entry e;
+            static_cast<typename Run::entry&>(e) = popped;
+            ++home.report.popped;
+            ops::dispatch(e.kind, [&](auto op) {
+                using Op = decltype(op);
+                tuple t = e.tuple;
+                const claim_result c = claim_footprint<Op>(spec_, m_, t, in_group);
+                if (c == claim_result::stale) return void(++home.report.stale);
+                if (c == claim_result::busy) {
+                    const index_t v = e.tuple.vid;
+                    return shards_[in_group(v) ? part_[v] : first].front.push_back(e);
+                }
+                entry current = e;
+                current.tuple = t;
+                if (!hooks::template should_process<Op>(spec_, m_, current))
+                    return void(++home.report.skipped);
+                const std::int64_t fd = ctx.face_delta, vd = ctx.vertex_delta;
+                ++me.report.attempted, ++me.report.grouped;
+                auto r = apply(Op{}, m_, t, spec_, ctx);
+                if (!r) {
+                    ++me.report.refused;
+                    hooks::template refused<Op>(spec_, m_, t);
+                    return;
+                }
+                ++me.report.succeeded;
+                me.group_face_delta += ctx.face_delta - fd;
+                me.group_vertex_delta += ctx.vertex_delta - vd;
+                auto push = [&](auto nop, const tuple& nt) {
+                    heap.push(entry{hooks::template make_entry<decltype(nop)>(spec_, m_, nt)});
+                    ++home.report.pushed;
+                };
+                hooks::template renew<Op>(spec_, m_, *r, push);
+            });
+        }
+        // The rounds merge each front with its queue's pops: pop order.
+        for (unsigned s = first; s < first + width; ++s)
+            std::sort(shards_[s].front.begin(), shards_[s].front.end(),
+                      [](const entry& a, const entry& b) { return pops_before(a, b); });
     }
 
     // ------------------------------------------------------------- rounds ----
@@ -575,6 +684,7 @@ private:
     std::vector<std::unique_ptr<thread_state>> threads_;
     std::vector<shard> shards_ = std::vector<shard>(K);
     progress live_;
+    std::vector<std::uint32_t> part_; // each vertex's shard, as seeded
     std::uint32_t rounds_ = 0, epoch_ = 0;
     std::vector<entry> cand_, keys_;
     entry last_{};

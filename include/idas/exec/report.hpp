@@ -48,6 +48,7 @@ struct run_report {
     std::uint64_t retaken = 0;       // set aside for the serial pass, then dealt out again
     double owner_seconds = 0;        // own_part_first: time of the lock-free phase
     std::uint64_t rounds = 0;        // deterministic_rounds: rounds run
+    std::uint64_t grouped = 0;       // deterministic_rounds: attempted in groups of shards
     std::int64_t faces = 0, vertices = 0;
     unsigned threads = 1;
     double seconds = 0;
@@ -65,7 +66,7 @@ struct run_report {
         refused += o.refused, lock_failures += o.lock_failures;
         deferred_to_serial += o.deferred_to_serial, stolen += o.stolen;
         crossed_parts += o.crossed_parts, retaken += o.retaken, owner_seconds += o.owner_seconds;
-        rounds += o.rounds;
+        rounds += o.rounds, grouped += o.grouped;
         seconds += o.seconds, setup_seconds += o.setup_seconds, tail_seconds += o.tail_seconds;
         return *this;
     }
