@@ -74,3 +74,37 @@ TEST_CASE("parallel no_self_intersection: remeshing on 4 threads") {
     CHECK(!find_inconsistency(m));
     CHECK(count_self_intersections(m) == 0);
 }
+
+// Deterministic rounds run remeshing's collapses, swaps and smoothing in groups of shards
+// first, the invariant's lock cells given to the groups along the vertices' Morton curve
+// (exec/deterministic.hpp, own_space): still one mesh at any thread count, and no face
+// meets another (under TSan, no group reads a cell another group writes).
+TEST_CASE("parallel no_self_intersection: deterministic remeshing, one mesh at any thread "
+          "count") {
+    using Mesh = tri_mesh<>;
+    const Mesh plate = idas::test::noisy_thin_plate<Mesh>(24, 0.02, 0.9);
+    auto remeshed = [&](unsigned threads) {
+        Mesh m = plate;
+        remeshing_options o;
+        o.target_length = 0.06;
+        o.iterations = 2;
+        exec_options e;
+        e.threads = threads;
+        self_intersection_index index(m, 4 * o.target_length);
+        const auto r =
+            isotropic_remeshing<Mesh, lock::deterministic_rounds, queue::dary_heap<4>,
+                                partition::morton, no_self_intersection>::run(m, o, e,
+                                                                              no_self_intersection(
+                                                                                  index));
+        CHECK(r.collapses > 0);
+        CHECK(r.smooths > 0);
+        CHECK(!find_inconsistency(m));
+        CHECK(count_self_intersections(m) == 0);
+        return m.to_arrays();
+    };
+    const auto one = remeshed(1);
+    for (unsigned threads : {2u, 3u, 8u}) {
+        CAPTURE(threads);
+        CHECK(remeshed(threads) == one);
+    }
+}

@@ -213,7 +213,8 @@ private:
     /// region freezes (claim.hpp), and no other group's entry holds any of it, so what a
     /// group does depends on its own entries only, never on the threads or on timing; no
     /// vertex is added, so every vertex stays in its shard. An entry whose region crosses
-    /// into another group (or claims space, which no group owns) waits for the next level,
+    /// into another group (or into another group's space, an invariant's lock cells: see
+    /// own_space) waits for the next level,
     /// where neighbouring groups on the Morton curve are merged in pairs (64 shards, then
     /// 32 groups, 16, 8, 4, 2), and what crosses even those waits in its shard's front for
     /// the rounds. Rounds alone walk each region about twice (half the candidates of a
@@ -221,14 +222,15 @@ private:
     /// between serial steps: harmonic smoothing of 200k points took 2.9 times as long as
     /// the try-lock executor's, with the groups first 1.5 times (bench/RESULTS.md). Not for
     /// a spec with a goal (`remaining`): its count must stop exactly where a serial order
-    /// would; nor for one whose invariant claims space (every region would cross).
+    /// would; nor for one whose invariant claims space it cannot locate.
+    using invariants_type = std::remove_cvref_t<decltype(spec_invariants(std::declval<Spec&>()))>;
     static constexpr bool own_shards_first_applies =
-        !ops::adds_simplices && !remaining_hook<Spec> &&
-        !std::remove_cvref_t<decltype(spec_invariants(std::declval<Spec&>()))>::claims_space;
+        !ops::adds_simplices && !remaining_hook<Spec> && invariants_type::locates_space;
     static constexpr unsigned group_levels = 6; // groups of 1, 2, 4, ... 32 shards
 
     void own_shards_first() {
         const std::size_t V = part_.size();
+        if constexpr (invariants_type::claims_space) own_space(V);
         for (unsigned level = 0; level < group_levels; ++level) {
             const unsigned width = 1u << level;
             parallel_chunks(pool_, K / width, 1, [&](std::size_t b, std::size_t e, unsigned th) {
@@ -243,6 +245,31 @@ private:
             t->group_face_delta = t->group_vertex_delta = 0;
         }
         live_.successes = successes;
+    }
+
+    /// An invariant's space (the lock cells of a spatial index) goes to the groups too:
+    /// each cell to the shard of the vertex before its centre along a Morton curve over
+    /// both. Any fixed owner keeps two groups from sharing a word; following the vertices'
+    /// shards keeps an operation's star and the space around it mostly in one group.
+    void own_space(std::size_t V) {
+        const auto inv = spec_invariants(spec_);
+        const std::size_t C = inv.extra_lock_words(m_);
+        space_owner_.assign(C, 0);
+        std::vector<vec3> points;
+        std::vector<index_t> vertex; // of each point, or invalid_index for a cell centre
+        points.reserve(V + C), vertex.reserve(V + C);
+        for (index_t v = 0; v < V; ++v)
+            if (m_.vertex_alive(v)) points.push_back(m_.position(v)), vertex.push_back(v);
+        for (std::size_t k = 0; k < C; ++k)
+            points.push_back(inv.lock_cell_centre(k)), vertex.push_back(invalid_index);
+        auto keyed = partition::morton::keys(points);
+        std::sort(keyed.begin(), keyed.end());
+        std::uint8_t last = 0;
+        for (const auto& [code, i] : keyed) // cells before the first vertex: shard 0
+            if (vertex[i] != invalid_index)
+                last = static_cast<std::uint8_t>(part_[vertex[i]]);
+            else
+                space_owner_[i - (points.size() - C)] = last;
     }
 
     /// Group g of `level` (shards g * 2^level and on) runs every entry of its shards,
@@ -260,7 +287,11 @@ private:
         }
         op_context<Mesh>& ctx = *me.ctx;
         ctx.worker = th;
-        auto in_group = [&](index_t v) { return v < V && (part_[v] >> level) == g; };
+        auto in_group = [&](index_t v) {
+            if (v < V) return (part_[v] >> level) == g;
+            const std::size_t w = v - V;
+            return w < space_owner_.size() && unsigned(space_owner_[w] >> level) == g;
+        };
         shard& home = shards_[first]; // its report counts the group's work
         for (typename Run::entry popped; heap.pop(popped);) {
             entry e;
@@ -684,7 +715,8 @@ private:
     std::vector<std::unique_ptr<thread_state>> threads_;
     std::vector<shard> shards_ = std::vector<shard>(K);
     progress live_;
-    std::vector<std::uint32_t> part_; // each vertex's shard, as seeded
+    std::vector<std::uint32_t> part_;       // each vertex's shard, as seeded
+    std::vector<std::uint8_t> space_owner_; // each lock word past the vertices: its shard
     std::uint32_t rounds_ = 0, epoch_ = 0;
     std::vector<entry> cand_, keys_;
     entry last_{};

@@ -258,6 +258,12 @@ public:
         return index_ ? index_->lock_cells() : 0;
     }
 
+    /// Where lock word k (past the vertices) lies: the centre of its cell. A deterministic
+    /// run gives each word to the group of the vertices around it (exec/deterministic.hpp).
+    vec3 lock_cell_centre(std::size_t k) const noexcept {
+        return index_ ? index_->lock_cell_centre(k) : vec3{0, 0, 0};
+    }
+
     /// Takes the lock cells of the operation's reach (its star held already).
     template <class Op, class Mesh, class Take>
     bool claim(Op, const Mesh& m, const typename Mesh::tuple& t, Take& take,

@@ -201,6 +201,14 @@ public:
                                     (std::size_t(y) + std::size_t(lock_dims_[1]) * std::size_t(z));
     }
 
+    /// The centre of the lock cell behind word w (see lock_word).
+    vec3 lock_cell_centre(std::size_t w) const noexcept {
+        const std::size_t nx = std::size_t(lock_dims_[0]), ny = std::size_t(lock_dims_[1]);
+        const double x = double(w % nx), y = double(w / nx % ny), z = double(w / (nx * ny));
+        const double side = double(1u << (cell_shift_ + lock_shift)) * quantum_;
+        return origin_ + vec3{(x + 0.5) * side, (y + 0.5) * side, (z + 0.5) * side};
+    }
+
     template <class Fn>
     static void for_each_cell(const cell_range& r, Fn&& fn) {
         for (std::int32_t z = r.lo[2]; z <= r.hi[2]; ++z)

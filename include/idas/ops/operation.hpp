@@ -256,6 +256,12 @@ template <class I>
 inline constexpr bool claims_space = requires {
     requires I::claims_space;
 };
+/// An invariant that claims space and says where each of its words lies
+/// (`vec3 lock_cell_centre(std::size_t k) const`, k counted past the vertices).
+template <class I>
+inline constexpr bool locates_space = requires(const I& i, std::size_t k) {
+    { i.lock_cell_centre(k) } -> std::convertible_to<vec3>;
+};
 template <class... Is>
 constexpr bool commits_last() {
     constexpr bool flags[] = {commits_on_accept<Is>..., false};
@@ -286,6 +292,15 @@ public:
         std::size_t n = 0;
         std::apply([&](const auto&... inv) { ((n += claimed_words(inv, m)), ...); }, invariants_);
         return n;
+    }
+    /// Whether the claiming invariant, if any, says where its words lie.
+    static constexpr bool locates_space =
+        ((!detail::claims_space<Is> || detail::locates_space<Is>)&&...);
+    /// Where the claiming invariant's word k (counted past the vertices) lies.
+    vec3 lock_cell_centre(std::size_t k) const requires(claims_space&& locates_space) {
+        vec3 c{0, 0, 0};
+        std::apply([&](const auto&... inv) { ((located(inv, k, c)), ...); }, invariants_);
+        return c;
     }
     /// The claiming invariant's claim for an operation of kind Op at t (star already held).
     template <class Op, class Mesh, class Tuple, class Take>
@@ -325,6 +340,10 @@ private:
             return inv.extra_lock_words(m);
         else
             return 0;
+    }
+    template <class I>
+    static void located(const I& inv, std::size_t k, vec3& c) {
+        if constexpr (detail::claims_space<I>) c = inv.lock_cell_centre(k);
     }
     template <class Op, class I, class Mesh, class Tuple, class Take>
     static bool claim_one(const I& inv, const Mesh& m, const Tuple& t, Take& take) {
