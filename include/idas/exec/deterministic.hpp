@@ -311,21 +311,13 @@ private:
                 if (!hooks::template should_process<Op>(spec_, m_, current))
                     return void(++home.report.skipped);
                 const std::int64_t fd = ctx.face_delta, vd = ctx.vertex_delta;
-                ++me.report.attempted, ++me.report.grouped;
-                auto r = apply(Op{}, m_, t, spec_, ctx);
-                if (!r) {
-                    ++me.report.refused;
-                    hooks::template refused<Op>(spec_, m_, t);
-                    return;
-                }
-                ++me.report.succeeded;
+                ++me.report.grouped;
+                attempt<Op>(me, t, [&](const entry& renewed) {
+                    heap.push(renewed);
+                    ++home.report.pushed;
+                });
                 me.group_face_delta += ctx.face_delta - fd;
                 me.group_vertex_delta += ctx.vertex_delta - vd;
-                auto push = [&](auto nop, const tuple& nt) {
-                    heap.push(entry{hooks::template make_entry<decltype(nop)>(spec_, m_, nt)});
-                    ++home.report.pushed;
-                };
-                hooks::template renew<Op>(spec_, m_, *r, push);
             });
         }
         // The rounds merge each front with its queue's pops: pop order.
@@ -570,20 +562,8 @@ private:
                 fate_[i] = fate::ran;
                 const std::int64_t fd = ctx.face_delta, vd = ctx.vertex_delta;
                 ops::dispatch(en.kind, [&](auto op) {
-                    using Op = decltype(op);
-                    ++me.report.attempted;
-                    auto r = apply(Op{}, m_, en.tuple, spec_, ctx);
-                    if (!r) {
-                        ++me.report.refused;
-                        hooks::template refused<Op>(spec_, m_, en.tuple);
-                        return;
-                    }
-                    ++me.report.succeeded;
-                    auto push = [&](auto nop, const tuple& nt) {
-                        out.push_back(
-                            entry{hooks::template make_entry<decltype(nop)>(spec_, m_, nt)});
-                    };
-                    hooks::template renew<Op>(spec_, m_, *r, push);
+                    attempt<decltype(op)>(me, en.tuple,
+                                          [&](const entry& renewed) { out.push_back(renewed); });
                 });
                 face_delta_[w] = ctx.face_delta - fd, vertex_delta_[w] = ctx.vertex_delta - vd;
             }
@@ -593,6 +573,25 @@ private:
             m_.end_parallel();
             m_.set_slot_recycling(false); // end_parallel turned it on
         }
+    }
+
+    /// Applies an operation of kind Op at t with `me`'s context (its region held, by a
+    /// group or as a round's winner), counts it in me's report, tells a refusal to the
+    /// spec and hands each renewed entry to `queue`. Groups and rounds share it.
+    template <class Op, class Queue>
+    void attempt(thread_state& me, const tuple& t, Queue&& queue) {
+        ++me.report.attempted;
+        auto r = apply(Op{}, m_, t, spec_, *me.ctx);
+        if (!r) {
+            ++me.report.refused;
+            hooks::template refused<Op>(spec_, m_, t);
+            return;
+        }
+        ++me.report.succeeded;
+        auto push = [&](auto nop, const tuple& nt) {
+            queue(entry{hooks::template make_entry<decltype(nop)>(spec_, m_, nt)});
+        };
+        hooks::template renew<Op>(spec_, m_, *r, push);
     }
 
     /// The live counts, as a serial run would have them after the round's successes.
