@@ -458,6 +458,7 @@ int run_decimate(const std::string& in, const std::string& out, const decimate_o
         j["deterministic"] = o.deterministic;
         j["self_intersections_refused"] = !o.allow_self_intersections;
         j["rounds"] = r.rounds;
+        j["grouped"] = r.grouped;
         j["attributes"] = attributes_json(result);
         j["constrained_vertices"] = d.constrained_vertices;
         if (o.algorithm == "qslim")

@@ -9,6 +9,7 @@
 #include <idas/core/aabb_tree.hpp>
 #include <idas/mesh/surface_distance.hpp>
 
+#include <cmath>
 #include <fstream>
 #include <initializer_list>
 #include <iterator>
@@ -66,12 +67,14 @@ void check_decimation(const char* file, double ratio) {
         const auto before = test::topology_of(m);
         Spec spec;
         spec.target_faces = static_cast<std::int64_t>(double(m.n_faces()) * ratio);
+        const std::int64_t goal = (std::int64_t(m.n_faces()) - spec.target_faces) / 2;
         const run_report r = Algorithm::run(m, spec, {.threads = threads});
         // Exact, as in a serial run: the last collapse removes one or two faces.
         CHECK(std::int64_t(m.n_faces()) <= spec.target_faces);
         CHECK(std::int64_t(m.n_faces()) >= spec.target_faces - 1);
-        CHECK(r.rounds > 1);
-        CHECK(r.grouped == 0); // a goal keeps every operation in the rounds' global order
+        CHECK(r.rounds > 1); // the last collapses run in rounds
+        // Groups of shards run bands of the goal while it is large.
+        CHECK((r.grouped > 0) == (goal >= det::min_band_goal));
         CHECK(r.threads == threads);
         const auto e = find_inconsistency(m);
         CHECK_MESSAGE(!e, *e);
@@ -122,23 +125,70 @@ TEST_CASE("deterministic rounds: the corner-table backend is deterministic too")
 }
 
 TEST_CASE("deterministic rounds: QSlim stays near the serial executor's result") {
-    // Rounds run non-overlapping collapses of the best entries together, not one at a time,
-    // so the order differs a little from a serial run; the error it adds stays small.
-    auto serial = test::load<mesh_t>("blub.obj"), rounds = serial;
-    const auto input = serial;
-    qslim_spec s1, s2;
-    s1.target_faces = s2.target_faces = std::int64_t(serial.n_faces()) / 20;
-    qslim<mesh_t, lock::none>::run(serial, s1);
-    qslim<mesh_t, det>::run(rounds, s2, {.threads = 2});
-    auto error = [&](const mesh_t& m) {
+    // Rounds and bands run non-overlapping collapses of the best entries together, not one
+    // at a time, so the order differs a little from a serial run's, and so does where the
+    // largest error falls: one target's distance moves by tens of percent either way with
+    // any change of order (the try-lock executor's too). Over several inputs and targets
+    // the error it adds stays small. (Not 100071_sf below 5%: its serial error jumps there,
+    // 0.0074 of the diagonal at 3%, 0.011 at 2%, 0.035 at 1.5%, so any other order lands
+    // at multiples of it: rounds alone gave 3.4 times the serial error at 2%.)
+    double log_sum = 0;
+    int cases = 0;
+    for (const char* file : {"blub.obj", "bunny.off", "100071_sf.obj"})
+        for (const double ratio : {0.1, 0.05, 0.02}) {
+            if (std::string(file) == "100071_sf.obj" && ratio < 0.05) continue;
+            CAPTURE(file);
+            CAPTURE(ratio);
+            auto serial = test::load<mesh_t>(file), rounds = serial;
+            const auto input = serial;
+            qslim_spec s1, s2;
+            s1.target_faces = s2.target_faces =
+                static_cast<std::int64_t>(double(serial.n_faces()) * ratio);
+            qslim<mesh_t, lock::none>::run(serial, s1);
+            qslim<mesh_t, det>::run(rounds, s2, {.threads = 2});
+            auto error = [&](const mesh_t& m) {
+                const auto [V, F] = m.to_arrays();
+                const auto [VI, FI] = input.to_arrays();
+                return hausdorff_symmetric(V, F, VI, FI, 16);
+            };
+            const double e_serial = error(serial), e_rounds = error(rounds);
+            CAPTURE(e_serial);
+            CAPTURE(e_rounds);
+            CHECK(e_rounds < 1.6 * e_serial);
+            log_sum += std::log(e_rounds / e_serial), ++cases;
+        }
+    const double geometric_mean = std::exp(log_sum / cases);
+    CAPTURE(geometric_mean);
+    CHECK(geometric_mean < 1.15);
+}
+
+TEST_CASE("deterministic rounds: a flat cube's equal costs stop at the target, corners kept") {
+    // Every collapse inside a side of a subdivided cube costs 0 in QSlim, so a band holds
+    // far more entries than the goal: only the shards' budgets keep the groups from
+    // passing it. The cube's corners cost more than any flat collapse, so the result is
+    // the cube: no vertex leaves its side.
+    std::string reference;
+    for (const unsigned threads : {1u, 3u}) {
+        CAPTURE(threads);
+        auto m = test::subdivided_cube<mesh_t>(32);
+        const auto input = m;
+        qslim_spec spec;
+        spec.target_faces = std::int64_t(m.n_faces()) / 100;
+        const run_report r = qslim<mesh_t, det>::run(m, spec, {.threads = threads});
+        CHECK(std::int64_t(m.n_faces()) <= spec.target_faces);
+        CHECK(std::int64_t(m.n_faces()) >= spec.target_faces - 1);
+        CHECK(r.grouped > r.attempted / 2);
+        const auto e = find_inconsistency(m);
+        CHECK_MESSAGE(!e, *e);
         const auto [V, F] = m.to_arrays();
         const auto [VI, FI] = input.to_arrays();
-        return hausdorff_symmetric(V, F, VI, FI, 16);
-    };
-    const double e_serial = error(serial), e_rounds = error(rounds);
-    CAPTURE(e_serial);
-    CAPTURE(e_rounds);
-    CHECK(e_rounds < 1.25 * e_serial);
+        CHECK(hausdorff_symmetric(V, F, VI, FI, 16) < 1e-9);
+        const std::string bytes = written(m, "deterministic_cube");
+        if (threads == 1)
+            reference = bytes;
+        else
+            CHECK(bytes == reference);
+    }
 }
 
 TEST_CASE("deterministic rounds: isotropic remeshing gives the same file at any thread count") {

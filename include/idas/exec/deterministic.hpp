@@ -17,6 +17,10 @@
 //  - a spec's goal (`remaining`) caps the winners of a round, best first, so a target
 //    face count is met exactly, as in a serial run.
 //
+// Before the rounds, a phase whose operations add no simplex lets fixed groups of shards
+// run what stays inside them, the groups in parallel (own_shards_first); with a goal, in
+// priority bands, each shard with a budget (run_in_bands).
+//
 // On one thread the rounds run the same way, so one thread and N give the same mesh.
 #pragma once
 
@@ -31,6 +35,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <span>
 #include <type_traits>
@@ -49,6 +54,9 @@ struct deterministic_rounds {
     /// Shards of the queue: fixed, so the rounds do not depend on the thread count; more
     /// than any machine's cores here, so every thread has shards to fill and drain.
     static constexpr unsigned shards = 64;
+    /// A spec with a goal runs its groups in bands while it still wants this many
+    /// operations; the last ones run in rounds only (deterministic_engine::run_in_bands).
+    static constexpr std::int64_t min_band_goal = 1024;
 
     template <class Run>
     static void execute(Run& run);
@@ -101,6 +109,8 @@ class deterministic_engine {
         std::size_t taken = 0;         // how many of them became candidates
         std::size_t first = 0;         // index of its first candidate
         std::size_t pushed_since_purge = 0;
+        std::int64_t budget = 0;        // successes its group may make in the open band
+        std::vector<double> priorities; // open_band: those of its entries still wanted
         run_report report;
     };
     /// A thread's context and its pushes, by shard.
@@ -141,21 +151,15 @@ public:
         seed();
         live_ = hooks::counts(m_);
         const double seeded = seeding.seconds();
-        if constexpr (own_shards_first_applies) {
-            if (!hooks::should_stop(spec_, live_)) {
+        if constexpr (groups_apply) {
+            if constexpr (remaining_hook<Spec>) {
+                run_in_bands();
+            } else if (!hooks::should_stop(spec_, live_)) {
                 hooks::quiescent(spec_, m_, live_);
                 own_shards_first();
             }
         }
-        while (!hooks::should_stop(spec_, live_)) {
-            // Between rounds no operation runs, and the counts are the same at any thread
-            // count, so what the spec refits here does not depend on the threads either.
-            hooks::quiescent(spec_, m_, live_);
-            if (fill_and_select() == 0) break;
-            if (select_winners() == 0) continue; // cannot happen: the best candidate wins
-            execute_winners();
-            merge_round();
-        }
+        run_rounds();
         run_report& r = run_.report();
         r.threads = T_;
         for (auto& s : shards_) r += s.report;
@@ -205,6 +209,19 @@ private:
         }
     }
 
+    /// Rounds until the spec stops or no entry is left (in a band: none inside it).
+    void run_rounds() {
+        while (!hooks::should_stop(spec_, live_)) {
+            // Between rounds no operation runs, and the counts are the same at any thread
+            // count, so what the spec refits here does not depend on the threads either.
+            hooks::quiescent(spec_, m_, live_);
+            if (fill_and_select() == 0) break;
+            if (select_winners() == 0) continue; // cannot happen: the best candidate wins
+            execute_winners();
+            merge_round();
+        }
+    }
+
     // -------------------------------------------------- shards on their own ----
 
     /// Phases whose operations add no simplex (smoothing, collapses, 3-2 flips) first let
@@ -214,19 +231,97 @@ private:
     /// group does depends on its own entries only, never on the threads or on timing; no
     /// vertex is added, so every vertex stays in its shard. An entry whose region crosses
     /// into another group (or into another group's space, an invariant's lock cells: see
-    /// own_space) waits for the next level,
-    /// where neighbouring groups on the Morton curve are merged in pairs (64 shards, then
-    /// 32 groups, 16, 8, 4, 2), and what crosses even those waits in its shard's front for
-    /// the rounds. Rounds alone walk each region about twice (half the candidates of a
-    /// smoothing round lose to an overlapping better one) and run a few hundred winners
-    /// between serial steps: harmonic smoothing of 200k points took 2.9 times as long as
-    /// the try-lock executor's, with the groups first 1.5 times (bench/RESULTS.md). Not for
-    /// a spec with a goal (`remaining`): its count must stop exactly where a serial order
-    /// would; nor for one whose invariant claims space it cannot locate.
+    /// own_space) waits for the next level, where neighbouring groups on the Morton curve
+    /// are merged in pairs (64 shards, then 32 groups, 16, 8, 4, 2), and what crosses even
+    /// those runs last in one group of the whole mesh, on one thread. Rounds alone walk
+    /// each region about twice (half the candidates of a smoothing round lose to an
+    /// overlapping better one) and run a few hundred winners between serial steps:
+    /// harmonic smoothing of 200k points took 2.9 times as long as the try-lock executor's,
+    /// with the groups first 1.5 times (bench/RESULTS.md). What crosses the halves lies
+    /// along one seam, so a round found few winners in it: one thread runs it faster than
+    /// rounds did on two (bench/RESULTS.md, "Session 31"). A spec with a goal
+    /// (`remaining`) runs the groups in bands (run_in_bands). Not for a spec whose
+    /// invariant claims space it cannot locate.
     using invariants_type = std::remove_cvref_t<decltype(spec_invariants(std::declval<Spec&>()))>;
-    static constexpr bool own_shards_first_applies =
-        !ops::adds_simplices && !remaining_hook<Spec> && invariants_type::locates_space;
-    static constexpr unsigned group_levels = 6; // groups of 1, 2, 4, ... 32 shards
+    static constexpr bool groups_apply = !ops::adds_simplices && invariants_type::locates_space;
+    static constexpr unsigned group_levels = 7; // groups of 1, 2, 4, ... 64 shards
+
+    /// A spec with a goal (a decimation to a face count) must stop where a serial order
+    /// would, best first, so its groups run in priority bands: the queued entries' priority
+    /// below which lie half the operations still wanted bounds a band; each shard gets a
+    /// budget of the goal in proportion to its entries inside the band (so the groups
+    /// together cannot pass the goal), the groups run what lies inside the band within
+    /// their budgets (a budget left over goes with the shard into the next level's group),
+    /// and rounds bounded by the band run what the budgets left. Then the next band, until
+    /// the goal is small: the rounds, best first, make the last operations exactly as
+    /// before. Budgets, bands and groups depend on counts alone, never on the threads.
+    /// Rounds alone made QSlim to 10% of armadillo x4 1.5 times as slow as the try-lock
+    /// executor (bench/RESULTS.md, "Session 31").
+    static constexpr std::int64_t band_share_inverse = 2; // a band: half the goal's entries
+    static constexpr unsigned max_bands = 32;
+
+    void run_in_bands() {
+        for (unsigned band = 0; band < max_bands && !hooks::should_stop(spec_, live_); ++band) {
+            const std::int64_t goal = spec_.remaining(live_);
+            if (goal < lock::deterministic_rounds::min_band_goal) break;
+            hooks::quiescent(spec_, m_, live_);
+            const std::uint64_t successes = live_.successes;
+            if (!open_band(goal)) break;
+            own_shards_first();
+            run_rounds();
+            band_open_ = false;
+            if (live_.successes == successes) break;
+        }
+    }
+
+    /// Purges every shard's queue of stale entries, bounds the band by the priority of the
+    /// (goal / band_share_inverse)-th best entry still wanted, and gives each shard its
+    /// budget. False if no entry is left.
+    bool open_band(std::int64_t goal) {
+        each_shard([&](unsigned s, unsigned) {
+            shard& sh = shards_[s];
+            sh.priorities.clear();
+            const std::size_t before = sh.q.size();
+            sh.q.erase_if([&](const entry& x) {
+                if (!run_.still_wanted(x)) return true;
+                sh.priorities.push_back(x.priority);
+                return false;
+            });
+            sh.report.purged += before - sh.q.size();
+            sh.pushed_since_purge = 0;
+            for (const entry& x : sh.front)
+                if (run_.still_wanted(x)) sh.priorities.push_back(x.priority);
+        });
+        band_priorities_.clear();
+        for (const shard& sh : shards_)
+            band_priorities_.insert(band_priorities_.end(), sh.priorities.begin(),
+                                    sh.priorities.end());
+        const std::size_t k =
+            static_cast<std::size_t>(std::max<std::int64_t>(1, goal / band_share_inverse));
+        if (band_priorities_.size() > k) {
+            std::nth_element(band_priorities_.begin(),
+                             band_priorities_.begin() + std::ptrdiff_t(k - 1),
+                             band_priorities_.end());
+            band_bound_ = band_priorities_[k - 1];
+        } else {
+            band_bound_ = std::numeric_limits<double>::infinity();
+        }
+        std::int64_t inside = 0;
+        for (shard& sh : shards_) {
+            sh.budget = std::count_if(sh.priorities.begin(), sh.priorities.end(),
+                                      [&](double p) { return !(p > band_bound_); });
+            inside += sh.budget;
+        }
+        if (inside == 0) return false;
+        for (shard& sh : shards_) sh.budget = goal * sh.budget / inside;
+        band_open_ = true;
+        return true;
+    }
+
+    /// Whether an entry lies inside the open band (every entry does when none is open).
+    bool in_band(const typename Run::entry& e) const noexcept {
+        return !band_open_ || !(e.priority > band_bound_);
+    }
 
     void own_shards_first() {
         const std::size_t V = part_.size();
@@ -275,15 +370,26 @@ private:
     /// Group g of `level` (shards g * 2^level and on) runs every entry of its shards,
     /// queued or waiting, and what they renew, in priority order with ties by slot (not
     /// spread, as the rounds need: neighbours then follow each other, which the cache
-    /// likes). What crosses out of the group waits in its vertex's shard's front.
+    /// likes). What crosses out of the group waits in its vertex's shard's front. In a band,
+    /// only the entries inside it, and no more successes than the group's budget.
     void run_group(unsigned g, unsigned level, std::size_t V, thread_state& me, unsigned th) {
         const unsigned width = 1u << level, first = g * width;
         auto& heap = me.group_queue;
+        std::int64_t budget = 0; // successes left to the group in the open band
         for (unsigned s = first; s < first + width; ++s) {
             shard& sh = shards_[s];
-            for (const entry& e : sh.front) heap.push(e);
-            sh.front.clear();
-            for (entry e; sh.q.pop(e);) heap.push(e);
+            budget += std::exchange(sh.budget, 0);
+            // The front is in pop order, so what lies inside the band comes first.
+            std::size_t f = 0;
+            for (; f < sh.front.size() && in_band(sh.front[f]); ++f) heap.push(sh.front[f]);
+            sh.front.erase(sh.front.begin(), sh.front.begin() + std::ptrdiff_t(f));
+            for (entry e; sh.q.pop(e);) {
+                if (!in_band(e)) {
+                    sh.q.push(e);
+                    break;
+                }
+                heap.push(e);
+            }
         }
         op_context<Mesh>& ctx = *me.ctx;
         ctx.worker = th;
@@ -292,34 +398,45 @@ private:
             const std::size_t w = v - V;
             return w < space_owner_.size() && unsigned(space_owner_[w] >> level) == g;
         };
+        // An entry that cannot run here waits in its vertex's shard (or the group's first).
+        auto home_of = [&](const tuple& t) -> shard& {
+            return shards_[in_group(t.vid) ? part_[t.vid] : first];
+        };
         shard& home = shards_[first]; // its report counts the group's work
         for (typename Run::entry popped; heap.pop(popped);) {
             entry e;
             static_cast<typename Run::entry&>(e) = popped;
+            if (band_open_ && budget == 0) {
+                home_of(e.tuple).front.push_back(e);
+                continue;
+            }
             ++home.report.popped;
             ops::dispatch(e.kind, [&](auto op) {
                 using Op = decltype(op);
                 tuple t = e.tuple;
                 const claim_result c = claim_footprint<Op>(spec_, m_, t, in_group);
                 if (c == claim_result::stale) return void(++home.report.stale);
-                if (c == claim_result::busy) {
-                    const index_t v = e.tuple.vid;
-                    return shards_[in_group(v) ? part_[v] : first].front.push_back(e);
-                }
+                if (c == claim_result::busy) return home_of(e.tuple).front.push_back(e);
                 entry current = e;
                 current.tuple = t;
                 if (!hooks::template should_process<Op>(spec_, m_, current))
                     return void(++home.report.skipped);
                 const std::int64_t fd = ctx.face_delta, vd = ctx.vertex_delta;
+                const std::uint64_t succeeded = me.report.succeeded;
                 ++me.report.grouped;
                 attempt<Op>(me, t, [&](const entry& renewed) {
-                    heap.push(renewed);
+                    if (in_band(renewed))
+                        heap.push(renewed);
+                    else
+                        home_of(renewed.tuple).q.push(renewed);
                     ++home.report.pushed;
                 });
+                budget -= std::int64_t(me.report.succeeded - succeeded);
                 me.group_face_delta += ctx.face_delta - fd;
                 me.group_vertex_delta += ctx.vertex_delta - vd;
             });
         }
+        home.budget = budget;
         // The rounds merge each front with its queue's pops: pop order.
         for (unsigned s = first; s < first + width; ++s)
             std::sort(shards_[s].front.begin(), shards_[s].front.end(),
@@ -360,13 +477,15 @@ private:
             bool queued = sh.q.pop(next);
             std::size_t f = 0;
             while (sh.popped.size() < per_shard) {
-                if (f < sh.front.size() && (!queued || !pops_before(next, sh.front[f]))) {
+                const bool from_front =
+                    f < sh.front.size() && (!queued || !pops_before(next, sh.front[f]));
+                if (!from_front && !queued) break;
+                if (!in_band(from_front ? sh.front[f] : next)) break; // the rest waits too
+                if (from_front) {
                     e = sh.front[f++];
-                } else if (queued) {
+                } else {
                     e = next;
                     queued = sh.q.pop(next);
-                } else {
-                    break;
                 }
                 ++sh.report.popped;
                 if (!m_.is_valid(e.tuple)) {
@@ -716,6 +835,9 @@ private:
     progress live_;
     std::vector<std::uint32_t> part_;       // each vertex's shard, as seeded
     std::vector<std::uint8_t> space_owner_; // each lock word past the vertices: its shard
+    bool band_open_ = false;                // run_in_bands: a band bounds what may run
+    double band_bound_ = 0;                 // its largest priority
+    std::vector<double> band_priorities_;
     std::uint32_t rounds_ = 0, epoch_ = 0;
     std::vector<entry> cand_, keys_;
     entry last_{};
