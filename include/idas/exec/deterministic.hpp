@@ -325,7 +325,11 @@ private:
 
     void own_shards_first() {
         const std::size_t V = part_.size();
-        if constexpr (invariants_type::claims_space) own_space(V);
+        // The cells keep their owners from band to band while their number stays: any
+        // fixed owner is correct, and sorting the curve again for every band took a tenth
+        // of a banded decimation (x4, shortest edge to 1%).
+        if constexpr (invariants_type::claims_space)
+            if (spec_invariants(spec_).extra_lock_words(m_) != space_owner_.size()) own_space(V);
         for (unsigned level = 0; level < group_levels; ++level) {
             const unsigned width = 1u << level;
             parallel_chunks(pool_, K / width, 1, [&](std::size_t b, std::size_t e, unsigned th) {
