@@ -318,9 +318,20 @@ private:
         return true;
     }
 
-    /// Whether an entry lies inside the open band (every entry does when none is open).
+    /// Whether an entry lies inside the open band (every entry does when none is open, and
+    /// always for a spec without a goal, which never opens one).
     bool in_band(const typename Run::entry& e) const noexcept {
-        return !band_open_ || !(e.priority > band_bound_);
+        if constexpr (remaining_hook<Spec>)
+            return !band_open_ || !(e.priority > band_bound_);
+        else
+            return true;
+    }
+    /// Whether a group's budget in the open band is spent.
+    bool budget_spent(std::int64_t budget) const noexcept {
+        if constexpr (remaining_hook<Spec>)
+            return band_open_ && budget == 0;
+        else
+            return false;
     }
 
     void own_shards_first() {
@@ -410,7 +421,7 @@ private:
         for (typename Run::entry popped; heap.pop(popped);) {
             entry e;
             static_cast<typename Run::entry&>(e) = popped;
-            if (band_open_ && budget == 0) {
+            if (budget_spent(budget)) {
                 home_of(e.tuple).front.push_back(e);
                 continue;
             }
