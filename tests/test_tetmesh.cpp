@@ -656,6 +656,35 @@ TEST_CASE("winding number: the hierarchy is within 1e-2 of the exact sum around 
     CHECK(worst < 1e-2);
 }
 
+TEST_CASE("winding number: solid angles summed as a product count every turn") {
+    // With beta huge no node is far: the hierarchy sums every solid angle as one product
+    // of complex numbers, and must agree with the sum of atan2s. Near the surface single
+    // angles approach 2 pi and the product turns many times; points on vertices, edges and
+    // faces make angles of 0 and +-2 pi on the cut.
+    const io::surface s = io::read_surface(data("bunny.obj"));
+    const winding_number w(s.vertices, s.faces, 1e9);
+    std::vector<vec3> points = points_around(s, 7, 40);
+    for (std::size_t i = 0; i < 200; ++i) {
+        const auto& t = s.faces[i * 97 % s.faces.size()];
+        const vec3 &a = s.vertices[t[0]], &b = s.vertices[t[1]], &c = s.vertices[t[2]];
+        const vec3 n = cross(b - a, c - a);
+        const vec3 g = (a + b + c) * (1.0 / 3.0);
+        points.push_back(a);
+        points.push_back((a + b) * 0.5);
+        points.push_back(g);
+        points.push_back(g + n * 1e-3);
+        points.push_back(g - n * 1e-3);
+    }
+    int far_from_zero = 0;
+    for (const vec3& p : points) {
+        const double exact = exact_winding(s, p);
+        CAPTURE(p);
+        CHECK(w(p) == doctest::Approx(exact).epsilon(1e-9));
+        far_from_zero += std::abs(exact) > 0.25;
+    }
+    CHECK(far_from_zero > 100);
+}
+
 TEST_CASE("winding number: labels from the coarse pass are those of the full accuracy") {
     // bunny is open: around its holes the winding number passes through 1/2, so the
     // coarse pass must hand those points back to the full accuracy.

@@ -979,6 +979,11 @@ public:
             for (std::size_t i = 0; i < c.facets.size(); ++i)
                 split_facet(c.facets[i], c.on_plane[i], c.parts[i]);
         }
+        // The cutters of the first phase live on into the second: their scratch goes
+        // back to the heap now, for the next cutters to take.
+        std::vector<cell>().swap(next_cells_);
+        std::vector<polygon>().swap(next_parts_);
+        std::vector<std::uint32_t>().swap(lines_);
     }
 
     /// Points on the tet's faces and edges, for the neighbours.

@@ -24,15 +24,62 @@
 
 namespace idas {
 
-/// Signed solid angle of triangle (a, b, c) seen from p (Van Oosterom and Strackee):
-/// positive when the triangle turns counter-clockwise seen from p.
-inline double solid_angle(const vec3& p, const vec3& a, const vec3& b, const vec3& c) {
+/// Van Oosterom and Strackee's two terms for triangle (a, b, c) seen from p: den + i det
+/// has half the triangle's signed solid angle as its argument.
+struct half_solid_angle {
+    double det, den;
+};
+inline half_solid_angle half_solid_angle_of(const vec3& p, const vec3& a, const vec3& b,
+                                            const vec3& c) {
     const vec3 x = a - p, y = b - p, z = c - p;
     const double lx = norm(x), ly = norm(y), lz = norm(z);
-    const double det = dot(x, cross(y, z));
-    const double den = lx * ly * lz + dot(x, y) * lz + dot(y, z) * lx + dot(z, x) * ly;
+    return {dot(x, cross(y, z)), lx * ly * lz + dot(x, y) * lz + dot(y, z) * lx + dot(z, x) * ly};
+}
+
+/// Signed solid angle of triangle (a, b, c) seen from p: positive when the triangle turns
+/// counter-clockwise seen from p.
+inline double solid_angle(const vec3& p, const vec3& a, const vec3& b, const vec3& c) {
+    const auto [det, den] = half_solid_angle_of(p, a, b, c);
     return 2.0 * std::atan2(det, den);
 }
+
+/// A sum of solid angles without an arctangent per triangle: the product of the
+/// triangles' den + i det has the sum of their half angles as its argument, up to whole
+/// turns, which are counted where the product crosses the negative real axis. One atan2
+/// per query instead of one per triangle (bench/RESULTS.md, session 32).
+class solid_angle_sum {
+public:
+    void add(const vec3& p, const vec3& a, const vec3& b, const vec3& c) {
+        const auto [det, den] = half_solid_angle_of(p, a, b, c);
+        if (det == 0) {
+            // On the real axis (p in the triangle's plane): a half angle of 0 or pi, whose
+            // side of the cut only atan2 knows.
+            rest_ += 2.0 * std::atan2(det, den);
+            return;
+        }
+        // The factor scaled to |den| + |det| = 1 (its division is off the product's
+        // chain of dependent operations), so the product shrinks by at most 1/sqrt(2) a
+        // factor and never overflows; a power of two brings it back from far below 1.
+        const double scale = 1.0 / (std::abs(den) + std::abs(det));
+        const double wr = den * scale, wi = det * scale;
+        // Both half angles in (0, pi] ("upper", by the sign bit as atan2 reads it) sum
+        // beyond pi when the product turns lower, both lower below -pi when it turns upper.
+        const bool z_upper = !std::signbit(im_), w_upper = det > 0;
+        const double re = re_ * wr - im_ * wi, im = re_ * wi + im_ * wr;
+        re_ = re, im_ = im;
+        if (z_upper == w_upper && z_upper == std::signbit(im_)) turns_ += z_upper ? 1 : -1;
+        if (std::abs(re_) + std::abs(im_) < 0x1p-500) re_ *= 0x1p500, im_ *= 0x1p500;
+    }
+    /// The sum of the solid angles added.
+    double value() const {
+        return 2.0 * (std::atan2(im_, re_) + 2.0 * std::numbers::pi * double(turns_)) + rest_;
+    }
+
+private:
+    double re_ = 1.0, im_ = 0.0;
+    long turns_ = 0;
+    double rest_ = 0.0;
+};
 
 class winding_number {
 public:
@@ -69,6 +116,7 @@ private:
     double at(const vec3& p, double beta2) const {
         if (nodes_.empty()) return 0.0;
         double sum = 0.0;
+        solid_angle_sum near;
         index_t stack[128];
         int top = 0;
         stack[top++] = 0;
@@ -83,14 +131,14 @@ private:
             if (n.left == invalid_index || top + 2 > 128) {
                 for (index_t i = n.begin; i < n.end; ++i) {
                     const auto& t = f_[order_[i]];
-                    sum += solid_angle(p, v_[t[0]], v_[t[1]], v_[t[2]]);
+                    near.add(p, v_[t[0]], v_[t[1]], v_[t[2]]);
                 }
                 continue;
             }
             stack[top++] = n.left;
             stack[top++] = n.left + 1;
         }
-        return sum / (4.0 * std::numbers::pi);
+        return (sum + near.value()) / (4.0 * std::numbers::pi);
     }
 
     /// A symmetric 3x3 matrix: xx, yy, zz, xy, xz, yz.
@@ -127,11 +175,13 @@ private:
     /// H = I / r^3 - 3 d d^T / r^5 and
     /// T_ijk = -3 (delta_ij d_k + delta_ik d_j + delta_jk d_i) / r^5 + 15 d_i d_j d_k / r^7.
     static double far_field(const node& n, const vec3& d, double d2) {
-        const double r = std::sqrt(d2), r3 = d2 * r, r5 = r3 * d2, r7 = r5 * d2;
+        // Powers of 1 / r from one division and one square root.
+        const double inv_r2 = 1.0 / d2, inv_r3 = inv_r2 * std::sqrt(inv_r2);
+        const double inv_r5 = inv_r3 * inv_r2, inv_r7 = inv_r5 * inv_r2;
         const auto& M = n.moment;
         const vec3 Md{dot(M[0], d), dot(M[1], d), dot(M[2], d)};
-        const double first = dot(n.normal, d) / r3;
-        const double second = (M[0].x + M[1].y + M[2].z) / r3 - 3 * dot(d, Md) / r5;
+        const double first = dot(n.normal, d) * inv_r3;
+        const double second = (M[0].x + M[1].y + M[2].z) * inv_r3 - 3 * dot(d, Md) * inv_r5;
         double t1 = 0, t2 = 0, t3 = 0;
         for (int i = 0; i < 3; ++i) {
             const symmetric& S = n.second[std::size_t(i)];
@@ -140,7 +190,7 @@ private:
             t2 += d[i] * (S[0] + S[1] + S[2]);
             t3 += d[i] * dot(d, Sd);
         }
-        const double third = 0.5 * (-3 * (2 * t1 + t2) / r5 + 15 * t3 / r7);
+        const double third = 0.5 * (-3 * (2 * t1 + t2) * inv_r5 + 15 * t3 * inv_r7);
         return first + second + third;
     }
 
