@@ -3,7 +3,10 @@
 # per input: idas's background Delaunay + insertion + rounding + labels (from
 # `idas tetmesh IN OUT --threads 1 --json`) against fTetWild's tetrahedralizing + cutting
 # + winding number (from its log, `--max-threads 1 --level 2`). Also the insertion alone
-# (without labels) and both tools' totals.
+# (without labels) and both tools' totals. Neither side counts building the input's
+# distance tree, which the background's grid uses: fTetWild builds it before its first
+# timer (src/main.cpp, `AABBWrapper tree(sf_mesh)`), idas with the cleaning (since
+# session 32; bunny's tree takes about 0.03 s).
 #   usage: FTETWILD=path/to/FloatTetwild_bin bench/run_insertion_stage.sh [INPUT...]
 #   (default inputs: 37989_sf.obj blub.obj 100071_sf.obj bunny.obj; IDAS and DATA as in
 #   bench/run_tetmesh.sh)

@@ -74,6 +74,8 @@ struct report {
     std::size_t rational_vertices_created = 0, rational_vertices_left = 0;
     std::size_t inverted_tets = 0; ///< exact orient3d <= 0 (always 0)
     double diagonal = 0, epsilon = 0, edge_length = 0;
+    /// Cleaning includes building the input's distance tree; the Delaunay stage, the
+    /// background's points (its grid) and their tetrahedralization.
     double seconds_cleaning = 0, seconds_simplification = 0, seconds_delaunay = 0,
            seconds_insertion = 0, seconds_rounding = 0, seconds_winding = 0, seconds_check = 0;
 };
@@ -244,6 +246,9 @@ inline result insert_soup(const std::vector<vec3>& vertices, const std::vector<t
         throw input_error(source + ": the edge length " + idas::detail::shortest(r.edge_length) +
                           " is below 1/1000 of the diagonal (" +
                           idas::detail::shortest(r.diagonal) + "): billions of tets");
+    // The input's distance tree (the background's grid and the optimization use it) is
+    // set-up, as fTetWild builds its tree before any of its stages.
+    tree = triangle_aabb_tree(soup.vertices, soup.faces);
     r.seconds_cleaning = detail::seconds_since(t0);
 
     // The triangles to insert: the cleaned soup, or its simplification welded back.
@@ -282,7 +287,6 @@ inline result insert_soup(const std::vector<vec3>& vertices, const std::vector<t
         auto coord = [&](int k, int i) {
             return i == cells[k] ? bhi[k] : blo[k] + (bhi[k] - blo[k]) * i / cells[k];
         };
-        tree = triangle_aabb_tree(soup.vertices, soup.faces);
         const double keep_away = 100 * r.epsilon * r.epsilon;
         for (int i = 0; i <= cells[0]; ++i)
             for (int j = 0; j <= cells[1]; ++j)
