@@ -1411,8 +1411,8 @@ private:
             std::optional<int_vector> d;
             int_vector w_row;
             // Only the points whose x lies in the box's range: a tet cut many times has
-            // hundreds of points and sides, and scanning every point for every side was
-            // 7% of 100071_sf's insertion.
+            // hundreds of points and sides, too many to scan every point for every side
+            // (bench/RESULTS.md, session 32).
             if (by_x_.size() != pts_.size()) {
                 by_x_.resize(pts_.size());
                 std::iota(by_x_.begin(), by_x_.end(), std::uint32_t{0});
