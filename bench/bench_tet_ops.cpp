@@ -138,7 +138,7 @@ struct bench_spec {
              std::is_same_v<Op, op::collapse_edge>) bool after(Op, Mesh& m,
                                                                const op_result<tet_tuple>& r,
                                                                vec3& p) const {
-        m.positions().set(r.anchor.vid, p);
+        m.positions(r).set(r.anchor.vid, p);
         return !fail;
     }
     template <class Mesh>
@@ -147,7 +147,7 @@ struct bench_spec {
         m.one_ring_vertices(r.anchor.vid, ring);
         vec3 c{};
         for (index_t w : ring) c += m.position(w);
-        m.positions().set(r.anchor.vid, c / double(ring.size()));
+        m.positions(r).set(r.anchor.vid, c / double(ring.size()));
         return !fail;
     }
     template <class Op, class Mesh>

@@ -331,7 +331,7 @@ struct core {
             return midpoint(m, t);
         }
         bool after(op::split_edge, mesh_t& m, const result_t& r, vec3& mid) const {
-            m.positions().set(r.anchor.vid, mid);
+            m.positions(r).set(r.anchor.vid, mid);
             return this->keep;
         }
     };
@@ -343,7 +343,7 @@ struct core {
             return midpoint(m, t);
         }
         bool after(op::collapse_edge, mesh_t& m, const result_t& r, vec3& mid) const {
-            m.positions().set(r.anchor.vid, mid);
+            m.positions(r).set(r.anchor.vid, mid);
             return this->keep;
         }
     };
@@ -364,7 +364,7 @@ struct core {
             return c / static_cast<double>(ring.size());
         }
         bool after(op::smooth_vertex, mesh_t& m, const result_t& r, vec3& c) const {
-            m.positions().set(r.anchor.vid, c);
+            m.positions(r).set(r.anchor.vid, c);
             return this->keep;
         }
     };

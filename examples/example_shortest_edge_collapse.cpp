@@ -34,7 +34,7 @@ struct shortest_edge_collapse {
     }
     bool after(op::collapse_edge, mesh& m, const idas::op_result<tuple>& r,
                const idas::vec3& p) const {
-        m.positions().set(r.anchor.vid, p);
+        m.positions(r).set(r.anchor.vid, p);
         return true;
     }
 

@@ -75,8 +75,8 @@ struct refine_with_field {
     }
     // A, after the split: write them (journaled: rolled back if the invariant refuses).
     bool after(op::split_edge, mesh& m, const idas::op_result<tuple>& r, const midpoint& p) const {
-        m.positions().set(r.anchor.vid, p.position);
-        m.attribute(field).set(r.anchor.vid, p.value);
+        m.positions(r).set(r.anchor.vid, p.position);
+        m.attribute(field, r).set(r.anchor.vid, p.value);
         return true;
     }
     // S: the halves and the new spokes may still be too long.

@@ -228,7 +228,7 @@ struct demo_spec {
     }
     template <class Mesh>
     bool after(idas::op::split_edge, Mesh& m, const result_t& r, const vec3& mid) const {
-        m.positions().set(r.anchor.vid, mid);
+        m.positions(r).set(r.anchor.vid, mid);
         return true;
     }
 
@@ -246,7 +246,7 @@ struct demo_spec {
     }
     template <class Mesh>
     bool after(idas::op::collapse_edge, Mesh& m, const result_t& r, const vec3& p) const {
-        m.positions().set(r.anchor.vid, p);
+        m.positions(r).set(r.anchor.vid, p);
         return true;
     }
 
@@ -288,7 +288,7 @@ struct demo_spec {
     }
     template <class Mesh>
     bool after(idas::op::smooth_vertex, Mesh& m, const result_t& r, const vec3& p) const {
-        m.positions().set(r.anchor.vid, p);
+        m.positions(r).set(r.anchor.vid, p);
         return true;
     }
 };

@@ -2,6 +2,7 @@
 // their undo log names.
 #pragma once
 
+#include <idas/core/attribute.hpp>
 #include <idas/core/types.hpp>
 
 #include <doctest/doctest.h>
@@ -21,16 +22,17 @@ void check_slots_come_from_the_logs_pool(Mesh& m) {
     m.begin_parallel(2, 4, 4); // new vertex slots v0, v0 + 1 (pool 0) and v0 + 2, v0 + 3 (pool 1)
     typename Mesh::undo_log first, second;
     first.pool = 0, second.pool = 1;
+    attribute_journal attrs; // the new slots' attribute resets (not rolled back here)
     CHECK(m.has_room(2, 2, 1));
     CHECK_FALSE(m.has_room(3, 0, 1));
-    CHECK(m.add_vertex(second) == v0 + 2);
-    CHECK(m.add_vertex(first) == v0);
-    CHECK(m.add_vertex(second) == v0 + 3);
+    CHECK(m.add_vertex(second, attrs) == v0 + 2);
+    CHECK(m.add_vertex(first, attrs) == v0);
+    CHECK(m.add_vertex(second, attrs) == v0 + 3);
     CHECK_FALSE(m.has_room(1, 0, 1));
     CHECK(m.has_room(1, 0, 0));
     m.rollback(second, 0); // both of pool 1's slots go back to pool 1
     CHECK(m.has_room(2, 0, 1));
-    CHECK(m.add_vertex(second) == v0 + 2);
+    CHECK(m.add_vertex(second, attrs) == v0 + 2);
     m.rollback(second, 0);
     m.rollback(first, 0);
     m.end_parallel();

@@ -333,8 +333,8 @@ struct qslim_geometry_only : qslim_spec {
     template <class Mesh>
     bool after(op::collapse_edge, Mesh& m, const op_result<typename Mesh::tuple>& r,
                const collapse_cache& c) const {
-        m.positions().set(r.anchor.vid, c.p.position);
-        m.attribute(Q).set(r.anchor.vid, c.p.merged);
+        m.positions(r).set(r.anchor.vid, c.p.position);
+        m.attribute(Q, r).set(r.anchor.vid, c.p.merged);
         return !transfer || transfer->collapse_after(m, r, c.carried);
     }
 };

@@ -13,7 +13,7 @@ TEST_CASE_TEMPLATE("attribute writes are journaled only inside operations", Mesh
     CHECK(m.attributes().template find<int, simplex_kind::vertex>("tag").column == tag.column);
     CHECK_FALSE(m.attributes().template find<double, simplex_kind::vertex>("tag").valid());
 
-    m.attribute(tag).set(0, 1); // outside an operation: a plain write
+    m.attribute(tag).raw(0) = 1; // outside an operation: a plain write
     CHECK(m.attribute(tag)[0] == 1);
 
     // A failing after() undoes every write it made, on every kind of simplex.
@@ -22,10 +22,10 @@ TEST_CASE_TEMPLATE("attribute writes are journaled only inside operations", Mesh
         face_attribute<double> area;
         edge_attribute<std::uint8_t> sharp;
         bool after(op::smooth_vertex, Mesh& m, const op_result<tri_tuple>& r) {
-            m.attribute(tag).set(r.anchor.vid, 42);
-            for (const auto& c : r.cells) m.attribute(area).set(c.fid, 99.0);
-            m.attribute(sharp).set(m.eid(r.anchor), 1);
-            m.positions().set(r.anchor.vid, {5, 5, 5});
+            m.attribute(tag, r).set(r.anchor.vid, 42);
+            for (const auto& c : r.cells) m.attribute(area, r).set(c.fid, 99.0);
+            m.attribute(sharp, r).set(m.eid(r.anchor), 1);
+            m.positions(r).set(r.anchor.vid, {5, 5, 5});
             return false;
         }
     } spec{tag, area, sharp};

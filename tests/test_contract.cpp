@@ -54,14 +54,17 @@ static_assert(!spec_for<no_operations, tri_mesh<>>);
 static_assert(spec_for<algorithms::qslim_spec, tri_mesh<backend::corner_table_tri>>);
 static_assert(spec_for<user_ops::split_largest_faces, tri_mesh<>>);
 
-// A const mesh hands out read-only attributes: `before` cannot write.
+// A const mesh hands out read-only attributes: `before` cannot write. A mutable one
+// writes through the journal of the operation that the op_result names (in `after`);
+// `m.attribute(h).set(...)` without it is a compile error (spec mistake 9).
 template <class M>
-concept writes_attributes = requires(M& m, vertex_attribute<int> h) {
-    m.attribute(h).set(0, 1);
+concept writes_attributes = requires(M& m, vertex_attribute<int> h,
+                                     const op_result<typename M::tuple>& r) {
+    m.attribute(h, r).set(0, 1);
 };
 template <class M>
-concept writes_positions = requires(M& m) {
-    m.positions().set(0, vec3{});
+concept writes_positions = requires(M& m, const op_result<typename M::tuple>& r) {
+    m.positions(r).set(0, vec3{});
 };
 static_assert(!writes_attributes<const tri_mesh<>> && !writes_positions<const tri_mesh<>>);
 static_assert(writes_attributes<tri_mesh<>> && writes_positions<tri_mesh<>>);

@@ -54,7 +54,7 @@ struct push_along_normal {
         const index_t v = r.anchor.vid;
         vec3 n{};
         for (index_t f : m.vertex_faces(v)) n += face_normal_unnormalised(m, f);
-        m.positions().set(v, m.position(v) + n / norm(n) * distance);
+        m.positions(r).set(v, m.position(v) + n / norm(n) * distance);
         return true;
     }
     auto invariants() const { return invariant_set{env}; }
@@ -155,7 +155,7 @@ TEST_CASE("envelope: an operation leaving the envelope is refused and rolled bac
             ++accepted;
             CHECK(norm(m.position(t.vid) - before) == doctest::Approx(0.2 * eps));
             // Put it back so the mesh returns to the input exactly.
-            m.positions().set(t.vid, before);
+            m.positions().raw(t.vid) = before;
         } else {
             ++refused;
         }
@@ -171,7 +171,7 @@ TEST_CASE("envelope: an operation leaving the envelope is refused and rolled bac
         const auto t = expected.tuple_from_vertex(vertices[i].vid);
         const vec3 before = expected.position(t.vid);
         REQUIRE(smooth_vertex(expected, t, near));
-        expected.positions().set(t.vid, before);
+        expected.positions().raw(t.vid) = before;
     }
     CHECK(identical(m, expected));
 
@@ -459,7 +459,7 @@ TEST_CASE("envelope: concurrent checks on one envelope agree with a serial pass"
         for (index_t v = 0; v < m.vertex_slots(); v += 7) {
             vec3 n{};
             for (index_t f : m.vertex_faces(v)) n += face_normal_unnormalised(m, f);
-            m.positions().set(v, m.position(v) + n / norm(n) * (v % 2 ? 2.0 : 0.3) * eps);
+            m.positions().raw(v) = m.position(v) + n / norm(n) * (v % 2 ? 2.0 : 0.3) * eps;
         }
         auto check = [&](std::size_t i) {
             envelope::state st;

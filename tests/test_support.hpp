@@ -101,8 +101,8 @@ struct midpoint_spec {
 
     template <class Mesh>
     void write_cells(Mesh& m, const op_result<tri_tuple>& r) {
-        auto len = m.attribute(edge_length);
-        auto gen = m.attribute(generation);
+        auto len = m.attribute(edge_length, r);
+        auto gen = m.attribute(generation, r);
         auto p = m.positions();
         for (const auto& t : r.cells) {
             gen.set(t.fid, gen[r.origins[&t - r.cells.data()]] + 1);
@@ -135,7 +135,7 @@ struct midpoint_spec {
              std::is_same_v<Op, op::collapse_edge>) bool after(Op, Mesh& m,
                                                                const op_result<tri_tuple>& r,
                                                                vec3& new_position) {
-        m.positions().set(r.anchor.vid, new_position);
+        m.positions(r).set(r.anchor.vid, new_position);
         write_cells(m, r);
         return !fail_now();
     }
@@ -154,7 +154,7 @@ struct midpoint_spec {
         m.one_ring_vertices(r.anchor.vid, ring);
         vec3 c{};
         for (index_t w : ring) c += m.position(w);
-        m.positions().set(r.anchor.vid, c / double(ring.size()));
+        m.positions(r).set(r.anchor.vid, c / double(ring.size()));
         write_cells(m, r);
         return !fail_now();
     }

@@ -233,7 +233,7 @@ TEST_CASE_TEMPLATE("a user invariant vetoes operations and they roll back exactl
             return (m.position(a) + m.position(b)) * 0.5;
         }
         bool after(op::split_edge, Mesh& m, const op_result<tri_tuple>& r, vec3& p) {
-            m.positions().set(r.anchor.vid, p);
+            m.positions(r).set(r.anchor.vid, p);
             return true;
         }
         auto invariants() const {
@@ -353,11 +353,12 @@ TEST_CASE_TEMPLATE("raw edits keep neighbours right, also across boundaries made
     // glue the new face onto boundary edges that existed before they began), must give
     // the original neighbours back; and every edit rolls back bit for bit.
     typename Mesh::undo_log log;
+    attribute_journal attrs; // new face slots' attribute resets (positions are per vertex)
     auto check = [](const Mesh& m) {
         const auto e = find_inconsistency(m);
         CHECK_MESSAGE(!e, *e);
     };
-    auto commit = [&] { log.resize(0); };
+    auto commit = [&] { log.resize(0), attrs.clear(); };
 
     const auto closed = octahedron<Mesh>();
     const auto want = adjacency(closed);
@@ -367,7 +368,7 @@ TEST_CASE_TEMPLATE("raw edits keep neighbours right, also across boundaries made
         const tri_indices fv = m.face_vertices(f);
         // One edit: remove and add back.
         m.remove_face(f, log);
-        m.add_face(fv, log);
+        m.add_face(fv, log, attrs);
         check(m);
         CHECK(adjacency(m) == want);
         m.rollback(log, 0);
@@ -378,13 +379,13 @@ TEST_CASE_TEMPLATE("raw edits keep neighbours right, also across boundaries made
         check(m);
         CHECK(m.is_boundary_vertex(fv[0]));
         const auto holed = m;
-        m.add_face(fv, log);
+        m.add_face(fv, log, attrs);
         check(m);
         CHECK(adjacency(m) == want);
         CHECK_FALSE(m.is_boundary_vertex(fv[0]));
         m.rollback(log, 0);
         CHECK(identical(holed, m));
-        m.add_face(fv, log);
+        m.add_face(fv, log, attrs);
         commit();
         check(m);
         CHECK(adjacency(m) == want);
@@ -420,10 +421,10 @@ TEST_CASE_TEMPLATE("raw edits keep neighbours right, also across boundaries made
         commit();
         check_near(m, a, b);
         CHECK(m.is_boundary_vertex(a[0]));
-        m.add_face(b, log);
+        m.add_face(b, log, attrs);
         commit();
         check_near(m, a, b);
-        m.add_face(a, log);
+        m.add_face(a, log, attrs);
         commit();
         check_near(m, a, b);
         CHECK_FALSE(m.is_boundary_vertex(a[0]));

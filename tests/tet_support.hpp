@@ -164,9 +164,9 @@ struct tet_spec {
     template <class Mesh>
     void write_cells(Mesh& m, const op_result<tet_tuple>& r) {
         if (!edge_length.valid()) return; // not attached to a mesh
-        auto len = m.attribute(edge_length);
-        auto mark = m.attribute(face_mark);
-        auto gen = m.attribute(generation);
+        auto len = m.attribute(edge_length, r);
+        auto mark = m.attribute(face_mark, r);
+        auto gen = m.attribute(generation, r);
         auto p = m.positions();
         for (std::size_t i = 0; i < r.cells.size(); ++i) {
             const auto& t = r.cells[i];
@@ -201,7 +201,7 @@ struct tet_spec {
              std::is_same_v<Op, op::collapse_edge>) bool after(Op, Mesh& m,
                                                                const op_result<tet_tuple>& r,
                                                                vec3& new_position) {
-        m.positions().set(r.anchor.vid, new_position);
+        m.positions(r).set(r.anchor.vid, new_position);
         write_cells(m, r);
         return !fail_now();
     }
@@ -211,7 +211,7 @@ struct tet_spec {
         m.one_ring_vertices(r.anchor.vid, ring);
         vec3 c{};
         for (index_t w : ring) c += m.position(w);
-        m.positions().set(r.anchor.vid, c / double(ring.size()));
+        m.positions(r).set(r.anchor.vid, c / double(ring.size()));
         write_cells(m, r);
         return !fail_now();
     }

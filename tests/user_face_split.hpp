@@ -25,10 +25,10 @@ auto apply(split_face, Mesh& m, const typename Mesh::tuple& t, Spec& spec, op_co
     return run_operation<split_face>(m, t, spec, ctx, [&] {
         const index_t f = t.fid;
         const tri_indices old = m.face_vertices(f);
-        const index_t nv = m.add_vertex(ctx.conn);
+        const index_t nv = m.add_vertex(ctx.conn, ctx.attrs);
         m.set_face(f, {old[0], old[1], nv}, ctx.conn);
-        const index_t g = m.add_face({old[1], old[2], nv}, ctx.conn);
-        const index_t h = m.add_face({old[2], old[0], nv}, ctx.conn);
+        const index_t g = m.add_face({old[1], old[2], nv}, ctx.conn, ctx.attrs);
+        const index_t h = m.add_face({old[2], old[0], nv}, ctx.conn, ctx.attrs);
         for (index_t c : {f, g, h}) emit_cell(m, ctx, nv, c, f);
         ctx.pending_faces = 2, ctx.pending_vertices = 1;
         return m.tuple_in_face(nv, f);
@@ -53,7 +53,7 @@ struct split_largest_faces {
     }
     template <class Mesh>
     bool after(split_face, Mesh& m, const op_result<typename Mesh::tuple>& r, const vec3& c) const {
-        m.positions().set(r.anchor.vid, c);
+        m.positions(r).set(r.anchor.vid, c);
         return true;
     }
     template <class Mesh, class Push>

@@ -69,12 +69,17 @@ struct split_spec {
 #elif MISTAKE == 4 // tagged with an operation the spec does not list: never called
     bool after(op::collapse_edge, Mesh& m, const op_result<typename Mesh::tuple>& r,
                const vec3& p) const {
-        m.positions().set(r.anchor.vid, p);
+        m.positions(r).set(r.anchor.vid, p);
         return true;
     }
-#else
+#elif MISTAKE == 9 // written past the operation's journal: a refused split would keep it
 bool after(op::split_edge, Mesh& m, const op_result<typename Mesh::tuple>& r, const vec3& p) const {
     m.positions().set(r.anchor.vid, p);
+    return true;
+}
+#else
+bool after(op::split_edge, Mesh& m, const op_result<typename Mesh::tuple>& r, const vec3& p) const {
+    m.positions(r).set(r.anchor.vid, p);
     return true;
 }
 #endif

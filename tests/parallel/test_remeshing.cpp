@@ -184,7 +184,7 @@ std::vector<std::optional<vec3>> collapse_fan(double height, bool frozen_ring) {
     attach_unit_state(m, s);
     if (frozen_ring)
         for (index_t v = 2; v < 8; ++v)
-            m.attribute(s.boundary).set(v, 1), m.attribute(s.frozen).set(v, 1);
+            m.attribute(s.boundary).raw(v) = 1, m.attribute(s.frozen).raw(v) = 1;
     const remesh_collapse_spec<> collapse{{}, s};
     std::vector<std::optional<vec3>> kept;
     m.for_each_edge([&](const tri_tuple& e) {
@@ -390,7 +390,7 @@ std::optional<vec3> smoothed_centre(const std::vector<vec3>& input_v,
     Mesh m(p, faces);
     remeshing_state s;
     attach_unit_state(m, s);
-    for (index_t v = 1; v < 7; ++v) m.attribute(s.boundary).set(v, 1);
+    for (index_t v = 1; v < 7; ++v) m.attribute(s.boundary).raw(v) = 1;
     s.input = std::make_shared<const triangle_aabb_tree>(input_v, input_f);
     remesh_smooth_spec<> smooth{{}, s, true};
     smooth.prepare(m);

@@ -205,18 +205,19 @@ public:
         for_each_pair(m, a, b, [&](std::size_t j, const attribute_gradient& h) { out.g[j] = h; });
     }
 
-    /// Writes the merged terms at the survivor a.
+    /// Writes the merged terms at the collapse's survivor.
     template <tri_mesh_like Mesh>
-    void write(Mesh& m, index_t a, const merged& in) const {
+    void write(Mesh& m, const op_result<typename Mesh::tuple>& r, const merged& in) const {
+        const index_t a = r.anchor.vid;
         attribute_terms x{in.q, in.w};
         for (std::size_t j = 0; j < std::min<std::size_t>(block, in.count); ++j) x.g[j] = in.g[j];
-        m.attribute(terms_).set(a, x);
+        m.attribute(terms_, r).set(a, x);
         if (in.count == 0) return; // a constrained survivor's other gradients stay zero
         for (std::size_t k = 0; k < more_.size(); ++k) {
             attribute_gradients y;
             for (std::size_t j = block * (k + 1), i = 0; i < block && j < scale_.size(); ++i, ++j)
                 y.g[i] = in.g[j];
-            m.attribute(more_[k]).set(a, y);
+            m.attribute(more_[k], r).set(a, y);
         }
     }
 

@@ -291,14 +291,14 @@ public:
                         const carried_values& c) const {
         const index_t a = r.anchor.vid;
         if (c.survivor_constrained) {
-            m.positions().set(a, c.kept_position);
+            m.positions(r).set(a, c.kept_position);
             if (corner_.empty()) return true;
             const double* corner_values = c.values + vertex_.size();
             for (std::uint32_t i = 0; i < c.star_size; ++i) {
                 const index_t f = c.star[i];
                 if (!m.connectivity().face_alive(f)) continue; // a face of the collapsed edge
                 const index_t s = slot_of(m, f, a);
-                if (!write_corners(m, f, s, [&](std::size_t k) { return corner_values[k]; }))
+                if (!write_corners(m, r, f, s, [&](std::size_t k) { return corner_values[k]; }))
                     return false;
             }
             return true;
@@ -335,7 +335,7 @@ public:
             const index_t a = m.face_vertices(old)[sa], b = m.face_vertices(fresh)[sb];
             ends[0] = a, ends[1] = b;
             for (std::size_t k = 0; k < corner_.size(); ++k) {
-                auto col = m.attribute(corner_[k]);
+                auto col = m.attribute(corner_[k], r);
                 corner_triple o = col[old];
                 const double mid = 0.5 * (o[sa] + o[sb]);
                 corner_triple n = o;
@@ -345,7 +345,7 @@ public:
                 col.set(fresh, n);
             }
             for (auto h : face_) {
-                auto col = m.attribute(h);
+                auto col = m.attribute(h, r);
                 col.set(fresh, col[old]);
             }
             if (first_old == invalid_index)
@@ -354,13 +354,13 @@ public:
                 disagree = sides_differ(m, first_old, old, nv);
         }
         auto vcol = [&](auto h) {
-            auto col = m.attribute(h);
+            auto col = m.attribute(h, r);
             col.set(nv, 0.5 * (col[ends[0]] + col[ends[1]]));
         };
         for (auto h : vertex_) vcol(h);
         // The new vertex lies on a seam, a tag border, a kept boundary or a feature if the
         // edge did.
-        auto fixed = m.attribute(constrained_);
+        auto fixed = m.attribute(constrained_, r);
         const bool boundary = first_old != invalid_index && r.cells.size() == 2;
         bool keep = disagree;
         if (boundary && options_.keep_boundary) keep = true;
@@ -390,7 +390,7 @@ public:
             const index_t f = cell.fid;
             const double before = textures_.empty() ? 0 : old.uv_area_sign;
             for (std::size_t k = 0; k < corner_.size(); ++k) {
-                auto col = m.attribute(corner_[k]);
+                auto col = m.attribute(corner_[k], r);
                 corner_triple n{};
                 for (int s = 0; s < 3; ++s) n[s] = old.value(m.face_vertices(f)[s], k);
                 col.set(f, n);
@@ -555,12 +555,12 @@ private:
     bool write_star(Mesh& m, index_t v, const op_result<typename Mesh::tuple>& r,
                     const carried_values& c) const {
         std::size_t i = 0;
-        for (auto h : vertex_) m.attribute(h).set(v, c.values[i++]);
+        for (auto h : vertex_) m.attribute(h, r).set(v, c.values[i++]);
         if (corner_.empty()) return true;
         for (const auto& cell : r.cells) {
             const index_t s = slot_of(m, cell.fid, v);
             if (s == invalid_index) continue;
-            if (!write_corners(m, cell.fid, s, [&](std::size_t k) { return c.values[i + k]; }))
+            if (!write_corners(m, r, cell.fid, s, [&](std::size_t k) { return c.values[i + k]; }))
                 return false;
         }
         return true;
@@ -569,10 +569,11 @@ private:
     /// Sets corner `s` of face f to value(k) for every corner component k; false if that
     /// folds the face's texture triangle.
     template <class Mesh, class Value>
-    bool write_corners(Mesh& m, index_t f, index_t s, Value&& value) const {
+    bool write_corners(Mesh& m, const op_result<typename Mesh::tuple>& r, index_t f, index_t s,
+                       Value&& value) const {
         const double before = textures_.empty() ? 0 : uv_area(m, f);
         for (std::size_t k = 0; k < corner_.size(); ++k) {
-            auto col = m.attribute(corner_[k]);
+            auto col = m.attribute(corner_[k], r);
             corner_triple t = col[f];
             t[s] = value(k);
             col.set(f, t);

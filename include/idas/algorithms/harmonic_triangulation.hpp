@@ -650,7 +650,7 @@ struct harmonic_smooth_spec {
 
     template <class Mesh>
     bool after(op::smooth_vertex, Mesh& m, const op_result<tet_tuple>& r, vec3& p) const {
-        m.positions().set(r.anchor.vid, p);
+        m.positions(r).set(r.anchor.vid, p);
         return true;
     }
 };

@@ -245,10 +245,10 @@ struct remesh_split_spec : detail::with_invariants<Extra...> {
     bool after(op::split_edge, Mesh& m, const op_result<typename Mesh::tuple>& r,
                const cache& c) const {
         const index_t v = r.anchor.vid;
-        m.positions().set(v, c.position);
-        m.attribute(s.frozen).set(v, c.frozen);
-        m.attribute(s.feature).set(v, c.feature);
-        m.attribute(s.boundary).set(v, c.boundary);
+        m.positions(r).set(v, c.position);
+        m.attribute(s.frozen, r).set(v, c.frozen);
+        m.attribute(s.feature, r).set(v, c.feature);
+        m.attribute(s.boundary, r).set(v, c.boundary);
         if (s.transfer) s.transfer->split_after(m, r);
         return true;
     }
@@ -347,13 +347,13 @@ struct remesh_collapse_spec : detail::with_invariants<Extra...> {
     template <class Mesh>
     bool after(op::collapse_edge, Mesh& m, const op_result<typename Mesh::tuple>& r,
                const collapse_cache& c) const {
-        m.positions().set(r.anchor.vid, c.position);
+        m.positions(r).set(r.anchor.vid, c.position);
         if (s.transfer && !s.transfer->collapse_after(m, r, c.carried)) return false;
         // The survivor took over b's faces: it is on the boundary if any of them is open.
         bool open = false;
         for (const auto& c : r.cells)
             open = open || m.is_boundary_edge(c) || m.is_boundary_edge(m.switch_edge(c));
-        m.attribute(s.boundary).set(r.anchor.vid, open);
+        m.attribute(s.boundary, r).set(r.anchor.vid, open);
         return true;
     }
     template <class Mesh, class Push>
@@ -550,8 +550,8 @@ struct remesh_smooth_spec : detail::with_invariants<Extra...> {
     template <class Mesh>
     bool after(op::smooth_vertex, Mesh& m, const op_result<typename Mesh::tuple>& r,
                const smooth_cache& c) const {
-        m.positions().set(r.anchor.vid, c.position);
-        m.attribute(s.smoothed).set(r.anchor.vid, s.pass);
+        m.positions(r).set(r.anchor.vid, c.position);
+        m.attribute(s.smoothed, r).set(r.anchor.vid, s.pass);
         return !s.transfer || s.transfer->smooth_after(m, r, c.carried);
     }
 };

@@ -186,9 +186,9 @@ struct qslim_spec : collapse_schedule {
     template <class Mesh>
     bool after(op::collapse_edge, Mesh& m, const op_result<typename Mesh::tuple>& r,
                const collapse_cache& c) const {
-        m.positions().set(r.anchor.vid, c.p.position);
-        m.attribute(Q).set(r.anchor.vid, c.p.merged);
-        if (appearance.active()) appearance.write(m, r.anchor.vid, c.terms);
+        m.positions(r).set(r.anchor.vid, c.p.position);
+        m.attribute(Q, r).set(r.anchor.vid, c.p.merged);
+        if (appearance.active()) appearance.write(m, r, c.terms);
         return !transfer || transfer->collapse_after(m, r, c.carried);
     }
 

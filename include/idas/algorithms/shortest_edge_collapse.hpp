@@ -50,7 +50,7 @@ struct shortest_edge_collapse_spec : collapse_schedule {
     template <class Mesh>
     bool after(op::collapse_edge, Mesh& m, const op_result<typename Mesh::tuple>& r,
                const collapse_cache& c) const {
-        m.positions().set(r.anchor.vid, c.position);
+        m.positions(r).set(r.anchor.vid, c.position);
         return !transfer || transfer->collapse_after(m, r, c.carried);
     }
 

@@ -195,9 +195,9 @@ struct soup_simplification_spec {
                const cache& c) const {
         // The survivor is the tuple's vertex a; when b was the frozen end, a takes b's
         // place, the soup vertex it stands for included.
-        m.positions().set(r.anchor.vid, c.position);
-        m.attribute(frozen).set(r.anchor.vid, c.frozen);
-        m.attribute(origin).set(r.anchor.vid, c.origin);
+        m.positions(r).set(r.anchor.vid, c.position);
+        m.attribute(frozen, r).set(r.anchor.vid, c.frozen);
+        m.attribute(origin, r).set(r.anchor.vid, c.origin);
         // Once the copies are welded back, a new face must not repeat a face: one of
         // another sheet on three cut vertices, or one of this sheet through another copy
         // of a cut vertex. Only a face with a frozen corner can (the other vertices have

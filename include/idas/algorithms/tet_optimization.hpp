@@ -246,7 +246,7 @@ void gather_tracked(const Mesh& m, const tet_optimization_state& s, index_t g, t
 template <class Mesh, class Tracked>
 void retrack(Mesh& m, const tet_optimization_state& s, const op_result<tet_tuple>& r,
              Tracked&& tracked) {
-    auto col = m.attribute(s.tracked);
+    auto col = m.attribute(s.tracked, r);
     for (const tet_tuple& c : r.cells) {
         const auto& tv = m.tet_vertices(c.tid);
         std::uint8_t bits = 0;
@@ -505,10 +505,10 @@ struct tet_split_spec : tet_optimization_invariants<Envelope> {
     template <class Mesh>
     bool after(op::split_tet_edge, Mesh& m, const op_result<tet_tuple>& r, cache& c) const {
         const index_t v = r.anchor.vid;
-        m.positions().set(v, c.position);
-        m.attribute(s.kind).set(v, c.kind);
-        m.attribute(s.scale).set(v, c.scale);
-        m.attribute(s.length).set(v, c.length);
+        m.positions(r).set(v, c.position);
+        m.attribute(s.kind, r).set(v, c.kind);
+        m.attribute(s.scale, r).set(v, c.scale);
+        m.attribute(s.length, r).set(v, c.length);
         // A face through v lies in the old face through edge ab if it holds a or b, and
         // inside an old tet (untracked) otherwise.
         detail::retrack(m, s, r, [&](index_t, std::uint8_t, const tri_indices& k) {
@@ -672,7 +672,7 @@ struct tet_collapse_spec : tet_optimization_invariants<Envelope> {
     template <class Mesh>
     bool after(op::collapse_edge, Mesh& m, const op_result<tet_tuple>& r, cache& c) const {
         const index_t a = r.anchor.vid;
-        auto kind = m.attribute(s.kind);
+        auto kind = m.attribute(s.kind, r);
         if ((c.kind_b & tet_vertex::surface) && !(kind[a] & tet_vertex::surface))
             kind.set(a, std::uint8_t(kind[a] | tet_vertex::surface)); // b's surface is a's now
         // Tets keep their slots and local order, so a face keeps its bit; a face through a
@@ -904,8 +904,8 @@ struct tet_smooth_spec : tet_optimization_invariants<Envelope> {
     template <class Mesh>
     bool after(op::smooth_vertex, Mesh& m, const op_result<tet_tuple>& r, vec3& q) const {
         const index_t v = r.anchor.vid;
-        m.positions().set(v, q);
-        auto kind = m.attribute(s.kind);
+        m.positions(r).set(v, q);
+        auto kind = m.attribute(s.kind, r);
         if (kind[v] & tet_vertex::rational)
             kind.set(v, std::uint8_t(kind[v] & ~tet_vertex::rational)); // exactly q now
         return true;

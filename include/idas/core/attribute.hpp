@@ -1,7 +1,8 @@
 // Typed attributes on simplices, stored struct-of-arrays and reached through handles.
 //
-// Every write made while an operation is running is journaled (the old bytes are
-// saved) so a rollback restores each value exactly. Values must be trivially
+// Every write an operation makes goes through that operation's journal (the old bytes
+// are saved), named explicitly by the accessor it writes with, so a rollback restores
+// each value exactly. Values must be trivially
 // copyable: that is what lets the journal save and restore them with memcpy and
 // lets the hot path avoid any per-type dispatch.
 #pragma once
@@ -142,10 +143,16 @@ private:
     std::vector<std::byte> bytes_;
 };
 
+/// What names the journal of a running operation: an `op_result` (what `after` gets) or
+/// the journal itself. Writes inside an operation go through it, never through the thread.
+template <class E>
+concept names_journal = requires(const E& e) {
+    { e.journal } -> std::convertible_to<attribute_journal*>;
+};
+
 namespace detail {
-/// The journal of the operation running on this thread, or null outside operations.
-/// Attribute writes consult it, so user code in `before`/`after` needs no extra argument.
-inline thread_local attribute_journal* active_attribute_journal = nullptr;
+template <class>
+inline constexpr bool unjournaled_write = false;
 } // namespace detail
 
 /// Read-only view of one attribute column: what a const mesh hands out, so hooks that see
@@ -162,13 +169,53 @@ private:
     const detail::column<T>* col_;
 };
 
-/// Journaled view of one attribute column. Reads are plain loads; `set` and `write`
-/// save the old value first when an operation is running on this thread.
+/// Set-up access to one column, outside operations (`m.attribute(h)` on a non-const
+/// mesh): reads, and unjournaled writes through `raw`. It has no `set`: a write inside an
+/// operation must be undone if the operation is refused, so `after` writes through the
+/// journaled accessor `m.attribute(h, r)` instead.
+template <attribute_value T>
+class attribute_setup {
+public:
+    explicit attribute_setup(detail::column<T>* c)
+        : col_(c) {}
+
+    const T& operator[](index_t i) const noexcept { return col_->values[i]; }
+    const T& get(index_t i) const noexcept { return col_->values[i]; }
+
+    /// Unjournaled mutable access, for set-up outside operations.
+    T& raw(index_t i) noexcept { return col_->values[i]; }
+
+    template <class U = T>
+    void set(index_t, const U&) {
+        static_assert(detail::unjournaled_write<U>,
+                      "idas: m.attribute(h).set() / m.positions().set() would write without the "
+                      "operation's journal, so a refused operation could not undo it: inside "
+                      "`after`, write through m.attribute(h, r) / m.positions(r) (r: the "
+                      "op_result); outside operations, use raw(i) = value");
+    }
+    template <class U = T>
+    T& write(index_t i) {
+        static_assert(detail::unjournaled_write<U>,
+                      "idas: m.attribute(h).write() would write without the operation's "
+                      "journal: inside `after`, use m.attribute(h, r).write(i); outside "
+                      "operations, raw(i)");
+        return col_->values[i];
+    }
+
+    operator attribute_view<T>() const noexcept { return attribute_view<T>(col_); }
+
+private:
+    detail::column<T>* col_;
+};
+
+/// Journaled access to one column for a running operation (`m.attribute(h, r)`): `set`
+/// and `write` save the old value in that operation's journal first.
 template <attribute_value T>
 class attribute_accessor {
 public:
-    attribute_accessor(detail::column<T>* c, std::uint32_t id)
+    attribute_accessor(detail::column<T>* c, std::uint32_t id, attribute_journal& journal)
         : col_(c)
+        , journal_(&journal)
         , id_(id) {}
 
     const T& operator[](index_t i) const noexcept { return col_->values[i]; }
@@ -178,18 +225,15 @@ public:
 
     /// Journals the slot, then hands out a mutable reference to it.
     T& write(index_t i) {
-        if (auto* j = detail::active_attribute_journal)
-            j->save(id_, i, reinterpret_cast<const std::byte*>(&col_->values[i]), sizeof(T));
+        journal_->save(id_, i, reinterpret_cast<const std::byte*>(&col_->values[i]), sizeof(T));
         return col_->values[i];
     }
-
-    /// Unjournaled mutable access, for set-up outside operations.
-    T& raw(index_t i) noexcept { return col_->values[i]; }
 
     operator attribute_view<T>() const noexcept { return attribute_view<T>(col_); }
 
 private:
     detail::column<T>* col_;
+    attribute_journal* journal_;
     std::uint32_t id_;
 };
 
@@ -236,8 +280,12 @@ public:
     }
 
     template <attribute_value T, simplex_kind K>
-    attribute_accessor<T> access(attribute_handle<T, K> h) {
-        return {static_cast<detail::column<T>*>(columns_[h.column].get()), h.column};
+    attribute_setup<T> setup(attribute_handle<T, K> h) {
+        return attribute_setup<T>(static_cast<detail::column<T>*>(columns_[h.column].get()));
+    }
+    template <attribute_value T, simplex_kind K>
+    attribute_accessor<T> access(attribute_handle<T, K> h, attribute_journal& journal) {
+        return {static_cast<detail::column<T>*>(columns_[h.column].get()), h.column, journal};
     }
     template <attribute_value T, simplex_kind K>
     attribute_view<T> view(attribute_handle<T, K> h) const {
@@ -259,15 +307,15 @@ public:
         for (auto& c : columns_)
             if (c && c->kind == kind && c->count < slots) c->grow(slots);
     }
-    /// Resets slot `i` of every column of `kind` to its default (new simplices).
-    void reset_slot(simplex_kind kind, index_t i) {
-        auto* journal = detail::active_attribute_journal;
+    /// Resets slot `i` of every column of `kind` to its default (a new simplex of the
+    /// operation that owns `journal`).
+    void reset_slot(simplex_kind kind, index_t i, attribute_journal& journal) {
         for (std::uint32_t k = 0; k < columns_.size(); ++k) {
             if (!columns_[k] || columns_[k]->kind != kind) continue;
             auto& c = *columns_[k];
             std::byte* slot = c.data + std::size_t(i) * c.stride;
             // A recycled slot still holds its old value; journal it so rollback is exact.
-            if (journal) journal->save(k, i, slot, c.stride);
+            journal.save(k, i, slot, c.stride);
             std::memcpy(slot, c.default_bytes.data(), c.stride);
         }
     }

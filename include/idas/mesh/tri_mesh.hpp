@@ -12,6 +12,7 @@
 
 #include <boost/container/small_vector.hpp>
 
+#include <cassert>
 #include <optional>
 #include <span>
 #include <string>
@@ -222,14 +223,22 @@ public:
     face_attribute<T> add_face_attribute(std::string name, T dflt = T{}) {
         return attrs_.add<T, simplex_kind::face>(std::move(name), face_slots(), dflt);
     }
-    /// A column's journaled accessor; through a const mesh, a read-only view.
+    /// A column for set-up outside operations (reads, and `raw` writes); through a const
+    /// mesh, a read-only view.
     template <attribute_value T, simplex_kind K>
-    attribute_accessor<T> attribute(attribute_handle<T, K> h) {
-        return attrs_.access(h);
+    attribute_setup<T> attribute(attribute_handle<T, K> h) {
+        return attrs_.setup(h);
     }
     template <attribute_value T, simplex_kind K>
     attribute_view<T> attribute(attribute_handle<T, K> h) const {
         return attrs_.view(h);
+    }
+    /// A column as the operation that `edit` names writes it (`after`: `m.attribute(h,
+    /// r)`): every `set` is journaled there, so a refusal restores the old value.
+    template <attribute_value T, simplex_kind K, names_journal Edit>
+    attribute_accessor<T> attribute(attribute_handle<T, K> h, const Edit& edit) {
+        assert(edit.journal && "idas: an op_result made outside an operation names no journal");
+        return attrs_.access(h, *edit.journal);
     }
     /// Removes a column added by the user or an algorithm (not the positions).
     template <attribute_value T, simplex_kind K>
@@ -238,25 +247,29 @@ public:
     }
 
     vertex_attribute<vec3> position_handle() const noexcept { return position_; }
-    attribute_accessor<vec3> positions() { return attrs_.access(position_); }
+    attribute_setup<vec3> positions() { return attrs_.setup(position_); }
     attribute_view<vec3> positions() const { return attrs_.view(position_); }
+    template <names_journal Edit>
+    attribute_accessor<vec3> positions(const Edit& edit) {
+        return attribute(position_, edit);
+    }
     const vec3& position(index_t v) const { return positions()[v]; }
 
     const attribute_registry& attributes() const noexcept { return attrs_; }
 
     // ---- mutation primitives for operations (journaled; attributes grow alongside) ----
     const Backend& connectivity() const noexcept { return conn_; }
-    index_t add_vertex(undo_log& log) {
+    index_t add_vertex(undo_log& log, attribute_journal& attrs) {
         const index_t v = conn_.add_vertex(log);
         attrs_.ensure(simplex_kind::vertex, std::size_t(v) + 1);
-        attrs_.reset_slot(simplex_kind::vertex, v);
+        attrs_.reset_slot(simplex_kind::vertex, v, attrs);
         return v;
     }
-    index_t add_face(const tri_indices& f, undo_log& log) {
+    index_t add_face(const tri_indices& f, undo_log& log, attribute_journal& attrs) {
         const index_t id = conn_.add_face(f, log);
         attrs_.ensure(simplex_kind::face, std::size_t(id) + 1);
         attrs_.ensure(simplex_kind::edge, 3 * (std::size_t(id) + 1));
-        attrs_.reset_slot(simplex_kind::face, id);
+        attrs_.reset_slot(simplex_kind::face, id, attrs);
         return id;
     }
     void remove_face(index_t f, undo_log& log) { conn_.remove_face(f, log); }

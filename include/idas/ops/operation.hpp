@@ -88,16 +88,21 @@ static_assert(where_new_facets<op::split_edge> == new_facets::anywhere &&
               where_new_facets<op::collapse_edge> == new_facets::through_anchor);
 
 /// What an operation created: an anchor tuple (documented per operation) and the faces
-/// (or tets) that are new or changed, each with the old simplex it came from.
+/// (or tets) that are new or changed, each with the old simplex it came from. While the
+/// operation runs (in `after`) it also names the operation's attribute journal, so the
+/// hook writes with `m.attribute(h, r)` / `m.positions(r)` and a refusal undoes it; the
+/// result an operation returns names none.
 template <class Tuple>
 struct op_result {
     Tuple anchor;
     std::span<const Tuple> cells;
     std::span<const index_t> origins;
+    attribute_journal* journal = nullptr;
 };
 
-/// Per-thread state of running operations: reused buffers, so steady-state operations
-/// allocate nothing.
+/// The state of one worker's running operations, passed to every operation explicitly:
+/// the connectivity undo log, the attribute journal, reused buffers (so steady-state
+/// operations allocate nothing) and the worker's index.
 template <class Mesh>
 struct op_context {
     typename Mesh::undo_log conn;
@@ -125,10 +130,7 @@ public:
         : m_(m)
         , ctx_(ctx)
         , conn_mark_(ctx.conn.size())
-        , attr_mark_(ctx.attrs.mark())
-        , previous_(detail::active_attribute_journal) {
-        detail::active_attribute_journal = &ctx.attrs;
-    }
+        , attr_mark_(ctx.attrs.mark()) {}
     transaction(const transaction&) = delete;
     transaction& operator=(const transaction&) = delete;
     ~transaction() {
@@ -146,21 +148,17 @@ public:
     }
 
 private:
-    void finish() {
-        detail::active_attribute_journal = previous_;
-        done_ = true;
-    }
+    void finish() { done_ = true; }
     Mesh& m_;
     op_context<Mesh>& ctx_;
     std::size_t conn_mark_, attr_mark_;
-    attribute_journal* previous_;
     bool done_ = false;
 };
 
 // ---------------------------------------------------------------------------------
 // The spec's hooks. All are optional; each is detected at compile time.
 //   before(Op, const Mesh&, tuple)                -> bool or std::optional<Cache>
-//   after(Op, Mesh&, const op_result&[, Cache&])  -> bool
+//   after(Op, Mesh&, const op_result&[, Cache&])  -> bool; writes m.attribute(h, r)
 //   invariants()                                  -> invariant_set<...>
 // ---------------------------------------------------------------------------------
 

@@ -290,7 +290,7 @@ void replace_edge_ring(Mesh& m, op_context<Mesh>& ctx, index_t a, index_t b, con
             slot = r.tets[next];
             m.set_tet(slot, nt, ctx.conn);
         } else {
-            slot = m.add_tet(nt, ctx.conn);
+            slot = m.add_tet(nt, ctx.conn, ctx.attrs);
         }
         ++next;
         emit_tet(m, ctx, nt[0], slot, origin);
@@ -333,13 +333,13 @@ std::optional<op_result<tet_tuple>> split_tet_edge_as(tet_mesh<B>& m, const tet_
         auto& tets = ctx.scratch;
         tets.clear();
         m.edge_tets(t, tets);
-        const index_t nv = m.add_vertex(ctx.conn);
+        const index_t nv = m.add_vertex(ctx.conn, ctx.attrs);
         // Live-count changes, for executors that track mesh size.
         ctx.pending_faces = static_cast<std::int64_t>(tets.size()), ctx.pending_vertices = 1;
         for (index_t g : tets) {
             const tet_indices old = m.tet_vertices(g);
             m.set_tet(g, replaced(old, b, nv), ctx.conn);
-            const index_t h = m.add_tet(replaced(old, a, nv), ctx.conn);
+            const index_t h = m.add_tet(replaced(old, a, nv), ctx.conn, ctx.attrs);
             emit_tet(m, ctx, nv, g, g);
             emit_tet(m, ctx, nv, h, g);
         }
@@ -434,7 +434,7 @@ std::optional<op_result<tet_tuple>> face_swap_23(tet_mesh<B>& m, const tet_tuple
         const index_t a = out[0], b = out[2], c = out[1];
         m.set_tet(t1, {a, b, e, d}, ctx.conn);
         m.set_tet(t2, {b, c, e, d}, ctx.conn);
-        const index_t t3 = m.add_tet({c, a, e, d}, ctx.conn);
+        const index_t t3 = m.add_tet({c, a, e, d}, ctx.conn, ctx.attrs);
         ctx.pending_faces = 1;
         detail::emit_tet(m, ctx, d, t1, t1);
         detail::emit_tet(m, ctx, d, t2, t2);

@@ -24,18 +24,19 @@ run_tri_operation(Mesh& m, const typename Mesh::tuple& t, Spec& spec, op_context
     typename std::remove_cvref_t<decltype(inv)>::states st{};
     if (!inv.template before<Op>(std::as_const(m), t, st)) return std::nullopt;
 
-    transaction<Mesh> tx(m, ctx); // opened first so even writes in before() are undone
+    transaction<Mesh> tx(m, ctx);
     auto cache = run_before<Op>(spec, std::as_const(m), t);
     if (!cache) return std::nullopt;
 
     ctx.cells.clear(), ctx.origins.clear();
     ctx.pending_faces = ctx.pending_vertices = 0;
     const auto anchor = change();
-    op_result<typename Mesh::tuple> r{anchor, ctx.cells, ctx.origins};
+    op_result<typename Mesh::tuple> r{anchor, ctx.cells, ctx.origins, &ctx.attrs};
     if (!run_after<Op>(spec, m, r, *cache)) return std::nullopt;
     if (!inv.template after<Op>(std::as_const(m), r, st)) return std::nullopt;
     tx.commit();
     ctx.face_delta += ctx.pending_faces, ctx.vertex_delta += ctx.pending_vertices;
+    r.journal = nullptr; // committed: later writes are no longer this operation's
     return r;
 }
 
@@ -68,11 +69,11 @@ std::optional<op_result<typename Mesh::tuple>> split_edge(Mesh& m, const typenam
         const auto [a, b] = m.edge_vertices(t);
         const auto g = m.switch_face(t);
         const index_t f = t.fid;
-        const index_t nv = m.add_vertex(ctx.conn);
+        const index_t nv = m.add_vertex(ctx.conn, ctx.attrs);
         auto split_face = [&](index_t face) {
             const tri_indices old = m.face_vertices(face);
             m.set_face(face, detail::replaced(old, b, nv), ctx.conn);
-            const index_t other = m.add_face(detail::replaced(old, a, nv), ctx.conn);
+            const index_t other = m.add_face(detail::replaced(old, a, nv), ctx.conn, ctx.attrs);
             detail::emit(m, ctx, nv, face, face);
             detail::emit(m, ctx, nv, other, face);
         };
@@ -180,7 +181,8 @@ auto apply(op::smooth_vertex, Mesh& m, const typename Mesh::tuple& t, Spec& s,
 
 /// Runs a user's operation kind Op under the library's transaction, as the built-in
 /// operations do: invariants' and the spec's `before` on the old mesh, `change()` (which
-/// edits connectivity through the mesh's journaled primitives with `ctx.conn`, records the
+/// edits connectivity through the mesh's journaled primitives with `ctx.conn` and
+/// `ctx.attrs`, records the
 /// new cells with `emit_cell`, sets `ctx.pending_faces` / `ctx.pending_vertices` to the
 /// net change and returns the anchor tuple), then `after` and the invariants on the new
 /// cells; any refusal rolls everything back. Overload `apply(Op, Mesh&, tuple, Spec&,
