@@ -901,14 +901,14 @@ struct point {
 /// A convex polygon: corners in cyclic order; support >= 0 is a plane of the tet's
 /// table, support < 0 is the tet's face -1 - support.
 struct polygon {
-    boost::container::small_vector<std::uint32_t, 8> v; // most have 3 to 6 corners
+    boost::container::small_vector<std::uint32_t, 6> v; // most have 3 to 6 corners
     std::int32_t support = 0;
 };
 
 /// Input triangles (most facets lie in the plane of none or one).
 using triangle_list = boost::container::small_vector<index_t, 4>;
-/// A facet split along lines (most are not split).
-using facet_parts = boost::container::small_vector<polygon, 2>;
+/// A facet split along lines (most are not split: one part inline).
+using facet_parts = boost::container::small_vector<polygon, 1>;
 
 // A cut tet's lists are short and live as long as the cutter: kept inside it where they
 // fit (small_vector), a cut tet asks the heap for a few blocks, not hundreds of pieces.
@@ -1045,10 +1045,13 @@ private:
     // Per plane: itself (every one exact), its key (4 * triangle + (0 | edge + 1), or a
     // face's), its sign at each point (2: not known yet). A cut tet has a few dozen at
     // most, so lists searched in order beat maps, and most live inside the cutter.
-    boost::container::small_vector<const exact_plane*, 16> planes_;
-    boost::container::small_vector<std::uint64_t, 16> plane_keys_;
-    boost::container::small_vector<boost::container::small_vector<std::int8_t, 24>, 16> signs_;
-    std::array<exact_plane, 4> face_planes_;
+    // The first phase's cutters all live into the second, so their size is the stage's
+    // memory, and first-touch page faults are much of its time: inline lists sized for
+    // the common tet (a few planes and points), the face planes made on first use.
+    boost::container::small_vector<const exact_plane*, 8> planes_;
+    boost::container::small_vector<std::uint64_t, 8> plane_keys_;
+    boost::container::small_vector<boost::container::small_vector<std::int8_t, 16>, 8> signs_;
+    std::unique_ptr<std::array<exact_plane, 4>> face_planes_;
     mpz_class num_; // scratch for exact_sign
     // Points made where a plane crosses a segment: key (a, b, plane), point.
     boost::container::small_vector<std::pair<std::uint64_t, std::uint32_t>, 8> edge_points_;
@@ -1128,7 +1131,8 @@ private:
         const auto& tv = in_.tets[tet_];
         const auto& fv = tet_local::face_vertices[f];
         const auto& V = in_.vertices;
-        exact_plane& pl = face_planes_[f];
+        if (!face_planes_) face_planes_ = std::make_unique<std::array<exact_plane, 4>>();
+        exact_plane& pl = (*face_planes_)[f];
         pl = plane_through(V[tv[fv[0]]], V[tv[fv[1]]], V[tv[fv[2]]]);
         make_exact(pl);
         return add_plane(key, pl);
