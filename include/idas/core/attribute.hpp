@@ -2,9 +2,8 @@
 //
 // Every write an operation makes goes through that operation's journal (the old bytes
 // are saved), named explicitly by the accessor it writes with, so a rollback restores
-// each value exactly. Values must be trivially
-// copyable: that is what lets the journal save and restore them with memcpy and
-// lets the hot path avoid any per-type dispatch.
+// each value exactly. Values must be trivially copyable: that is what lets the journal
+// save and restore them with memcpy and lets the hot path avoid any per-type dispatch.
 #pragma once
 
 #include <idas/core/types.hpp>
@@ -143,8 +142,8 @@ private:
     std::vector<std::byte> bytes_;
 };
 
-/// What names the journal of a running operation: an `op_result` (what `after` gets) or
-/// the journal itself. Writes inside an operation go through it, never through the thread.
+/// What names the journal of a running operation: the `op_result` that `after` gets.
+/// Writes inside an operation go through it, never through the thread.
 template <class E>
 concept names_journal = requires(const E& e) {
     { e.journal } -> std::convertible_to<attribute_journal*>;
