@@ -44,6 +44,7 @@
 #include <memory>
 #include <numeric>
 #include <optional>
+#include <span>
 #include <stdexcept>
 #include <string>
 #include <tuple>
@@ -880,10 +881,12 @@ struct point {
     /// need it. Not thread-safe on a double point: each cutter reads only its own
     /// points' positions.
     const homogeneous_point& h() const {
-        if (!exact) exact.emplace(to_homogeneous(approx));
+        if (!exact) exact = std::make_shared<const homogeneous_point>(to_homogeneous(approx));
         return *exact;
     }
-    /// A copy for another cutter: a double point's position is left to be built there.
+    /// A copy for another cutter: a double point's position is left to be built there;
+    /// an exact one is shared, not copied (a cutter's points on its faces and edges are
+    /// handed to every neighbour there, and the first phase holds all of them at once).
     point handed_on(std::uint8_t on_faces) const {
         point r{approx, is_double, on_faces, {}};
         if (!is_double) r.exact = exact;
@@ -895,7 +898,8 @@ struct point {
                (is_double || same_point(*exact, *o.exact));
     }
 
-    mutable std::optional<homogeneous_point> exact; ///< always set when !is_double
+    /// Always set when !is_double; never changed once set (cutters share it).
+    mutable std::shared_ptr<const homogeneous_point> exact;
 };
 
 /// A convex polygon: corners in cyclic order; support >= 0 is a plane of the tet's
@@ -910,12 +914,9 @@ using triangle_list = boost::container::small_vector<index_t, 4>;
 /// A facet split along lines (most are not split: one part inline).
 using facet_parts = boost::container::small_vector<polygon, 1>;
 
-// A cut tet's lists are short and live as long as the cutter: kept inside it where they
-// fit (small_vector), a cut tet asks the heap for a few blocks, not hundreds of pieces.
+/// A convex cell while the tet is cut: its facets, kept inside it where they fit.
 struct cell {
-    boost::container::small_vector<polygon, 6> facets;         ///< convex facets from the cuts
-    boost::container::small_vector<facet_parts, 6> parts;      ///< each facet split along lines
-    boost::container::small_vector<triangle_list, 6> on_plane; ///< input triangles in its plane
+    boost::container::small_vector<polygon, 6> facets;
 };
 
 /// Points a tet hands to its neighbours: on its face f (face >= 0) or on its local edge
@@ -942,7 +943,7 @@ inline point make_point(homogeneous_point q, std::uint8_t faces) {
     r.is_double = true;
     for (std::size_t k = 0; k < 3 && r.is_double; ++k)
         r.is_double = equals_double(q.X[k], q.W, r.approx[int(k)]);
-    r.exact.emplace(std::move(q));
+    r.exact = std::make_shared<const homogeneous_point>(std::move(q));
     r.faces = faces;
     return r;
 }
@@ -974,15 +975,19 @@ public:
             group_plane_.emplace_back(g, k);
             cut_cells(k);
         }
-        for (cell& c : cells_) {
-            c.parts.resize(c.facets.size());
-            c.on_plane.resize(c.facets.size());
-            for (std::size_t i = 0; i < c.facets.size(); ++i)
-                split_facet(c.facets[i], c.on_plane[i], c.parts[i]);
+        triangle_list on_plane;
+        facet_parts parts;
+        for (const cell& c : cells_) {
+            packed_.push_back(std::uint32_t(c.facets.size()));
+            for (const polygon& f : c.facets) {
+                split_facet(f, on_plane, parts);
+                pack_facet(f, on_plane, parts);
+                on_plane.clear();
+            }
         }
-        // The cutters of the first phase live on into the second: their scratch goes
-        // back to the heap now, for the next cutters to take.
-        std::vector<cell>().swap(next_cells_);
+        // The cutters of the first phase live on into the second: their cells, packed
+        // now, and their scratch go back to the heap, for the next cutters to take.
+        std::vector<cell>().swap(cells_);
         std::vector<polygon>().swap(next_parts_);
         std::vector<std::uint32_t>().swap(lines_);
     }
@@ -1024,7 +1029,7 @@ public:
     /// Phase 2: triangulate the polygons with every point on their sides, cone the cells.
     tet_output finish() {
         tet_output out;
-        for (const cell& c : cells_) cone(c, out);
+        for (std::size_t at = 0; at < packed_.size();) at = cone(at, out);
         for (auto& [key, entry] : triangulations_)
             if (!entry.tracked_by.empty())
                 for (const auto& t : entry.triangles) {
@@ -1041,7 +1046,13 @@ private:
     const tet_adjacency& adj_;
     index_t tet_;
     std::vector<point> pts_;
-    std::vector<cell> cells_;
+    std::vector<cell> cells_; // while cutting
+    // The cells once cut, in one list: per cell its number of facets, per facet its
+    // corners (count, then each), its input triangles (count, then each) and its parts
+    // along lines (count, then per part its support and corners). A cell holds tens of
+    // numbers, where its lists inline took a kilobyte, and the cutters of the first phase
+    // all live into the second: their size is the stage's memory and its page faults.
+    std::vector<std::uint32_t> packed_;
     // Per plane: itself (every one exact), its key (4 * triangle + (0 | edge + 1), or a
     // face's), its sign at each point (2: not known yet). A cut tet has a few dozen at
     // most, so lists searched in order beat maps, and most live inside the cutter.
@@ -1071,7 +1082,7 @@ private:
     std::vector<std::uint32_t> by_x_;  // the points by their x in doubles (side_points)
     std::vector<std::uint32_t> lines_; // scratch of lines_for()
     std::vector<polygon> next_parts_;  // scratch of split_facet()
-    std::vector<cell> next_cells_;     // scratch of cut_cells()
+    boost::container::small_vector<bool, 8> crossed_; // scratch of cut_cells()
 
     std::optional<std::uint32_t> known_plane(std::uint64_t key) const {
         const auto it = std::find(plane_keys_.begin(), plane_keys_.end(), key);
@@ -1287,25 +1298,41 @@ private:
         });
     }
 
+    /// A cell with corners strictly on both sides of plane k.
+    bool crossed_by(const cell& c, std::uint32_t k) {
+        bool has_pos = false, has_neg = false;
+        for (const polygon& f : c.facets)
+            for (std::uint32_t v : f.v) {
+                const int s = sign(v, k);
+                has_pos |= s > 0, has_neg |= s < 0;
+            }
+        return has_pos && has_neg;
+    }
+
+    /// Splits every cell that plane k crosses into its two sides, in place and in order
+    /// (the positive side first): the cells it misses are not moved unless a cell before
+    /// them was split.
     void cut_cells(std::uint32_t k) {
-        std::vector<cell>& next = next_cells_;
-        next.clear();
-        for (cell& c : cells_) {
-            bool has_pos = false, has_neg = false;
-            for (const polygon& f : c.facets)
-                for (std::uint32_t v : f.v) {
-                    const int s = sign(v, k);
-                    has_pos |= s > 0, has_neg |= s < 0;
-                }
-            if (!(has_pos && has_neg)) {
-                next.push_back(std::move(c));
+        crossed_.clear();
+        std::size_t splits = 0;
+        for (const cell& c : cells_) {
+            crossed_.push_back(crossed_by(c, k));
+            splits += crossed_.back() ? 1 : 0;
+        }
+        if (splits == 0) return;
+        const std::size_t old_size = cells_.size();
+        cells_.resize(old_size + splits);
+        std::size_t to = cells_.size();
+        for (std::size_t i = old_size; i-- > 0;) {
+            if (!crossed_[i]) {
+                if (--to != i) cells_[to] = std::move(cells_[i]);
                 continue;
             }
             cell P, N;
             polygon pos, neg;
             polygon cap;
             auto& section = cap.v;
-            for (const polygon& f : c.facets) {
+            for (const polygon& f : cells_[i].facets) {
                 int side = 0;
                 if (split(f, k, pos, neg, side)) {
                     P.facets.push_back(pos), N.facets.push_back(neg);
@@ -1321,9 +1348,22 @@ private:
             order_on_plane(section, planes_[k]->n);
             cap.support = std::int32_t(k);
             P.facets.push_back(cap), N.facets.push_back(cap);
-            next.push_back(std::move(P)), next.push_back(std::move(N));
+            cells_[--to] = std::move(N);
+            cells_[--to] = std::move(P);
         }
-        cells_.swap(next);
+    }
+
+    void pack_facet(const polygon& f, const triangle_list& on_plane, const facet_parts& parts) {
+        packed_.push_back(std::uint32_t(f.v.size()));
+        packed_.insert(packed_.end(), f.v.begin(), f.v.end());
+        packed_.push_back(std::uint32_t(on_plane.size()));
+        packed_.insert(packed_.end(), on_plane.begin(), on_plane.end());
+        packed_.push_back(std::uint32_t(parts.size()));
+        for (const polygon& p : parts) {
+            packed_.push_back(std::bit_cast<std::uint32_t>(p.support));
+            packed_.push_back(std::uint32_t(p.v.size()));
+            packed_.insert(packed_.end(), p.v.begin(), p.v.end());
+        }
     }
 
     /// The lines that split a facet, as planes crossing its plane: edge planes of the
@@ -1516,21 +1556,30 @@ private:
     }
 
     /// Triangulation of a facet part, the same for every tet and cell that holds it.
-    const triangulation& triangulate(const polygon& P, const triangle_list& on_plane) {
-        corner_list key(P.v.begin(), P.v.end());
+    const triangulation& triangulate(const polygon& P, std::span<const index_t> on_plane) {
+        const auto& v = P.v;
+        corner_list key(v.begin(), v.end());
         std::sort(key.begin(), key.end());
+        // GCC 12 cannot bound the size of a key held inline when it moves it into the
+        // node, and warns of a read past the inline room that the move never makes.
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wstringop-overread"
+#endif
         auto [it, fresh] = triangulations_.try_emplace(std::move(key));
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic pop
+#endif
         triangulation& T = it->second;
         if (!fresh) return T;
-        const std::size_t m = P.v.size();
+        const std::size_t m = v.size();
         // Canonical corner cycle: from the smallest corner towards its smaller neighbour.
         std::size_t s = 0;
         for (std::size_t i = 1; i < m; ++i)
-            if (smaller(P.v[i], P.v[s])) s = i;
-        const bool forward = smaller(P.v[(s + 1) % m], P.v[(s + m - 1) % m]);
+            if (smaller(v[i], v[s])) s = i;
+        const bool forward = smaller(v[(s + 1) % m], v[(s + m - 1) % m]);
         corner_list corners(m);
-        for (std::size_t i = 0; i < m; ++i)
-            corners[i] = P.v[forward ? (s + i) % m : (s + m - i) % m];
+        for (std::size_t i = 0; i < m; ++i) corners[i] = v[forward ? (s + i) % m : (s + m - i) % m];
         // Boundary with every point on the sides; clear[i]: side (i, i + 1) has none.
         boost::container::small_vector<std::uint32_t, 16> boundary;
         boost::container::small_vector<bool, 8> clear(m);
@@ -1618,14 +1667,37 @@ private:
                                  : std::array<std::uint32_t, 4>{t[0], t[2], t[1], apex});
     }
 
-    /// Tets of a convex cell: a cone from its smallest corner that sees every boundary
-    /// triangle not containing it, else from a point inside.
-    void cone(const cell& c, tet_output& out) {
+    /// Tets of the convex cell packed at `at`; returns where the next cell starts.
+    std::size_t cone(std::size_t at, tet_output& out) {
         boost::container::small_vector<const triangulation*, 16> parts;
-        for (std::size_t i = 0; i < c.facets.size(); ++i)
-            for (const polygon& p : c.parts[i]) parts.push_back(&triangulate(p, c.on_plane[i]));
         boost::container::small_vector<std::uint32_t, 16> corners;
-        for (const polygon& f : c.facets) corners.insert(corners.end(), f.v.begin(), f.v.end());
+        const std::uint32_t* x = packed_.data() + at;
+        polygon part;
+        auto take = [&](std::uint32_t n) {
+            const std::span<const std::uint32_t> r(x, n);
+            x += n;
+            return r;
+        };
+        for (std::uint32_t facets = *x++; facets > 0; --facets) {
+            const auto facet = take(*x++);
+            corners.insert(corners.end(), facet.begin(), facet.end());
+            const auto on_plane = take(*x++);
+            for (std::uint32_t n = *x++; n > 0; --n) {
+                part.support = std::bit_cast<std::int32_t>(*x++);
+                const auto corners_of_part = take(*x++);
+                part.v.assign(corners_of_part.begin(), corners_of_part.end());
+                parts.push_back(&triangulate(part, on_plane));
+            }
+        }
+        cone({parts.data(), parts.size()}, corners, out);
+        return std::size_t(x - packed_.data());
+    }
+
+    /// Tets of a convex cell (its facet parts' triangulations and its corners): a cone
+    /// from its smallest corner that sees every boundary triangle not containing it, else
+    /// from a point inside.
+    void cone(std::span<const triangulation* const> parts,
+              boost::container::small_vector<std::uint32_t, 16>& corners, tet_output& out) {
         std::sort(corners.begin(), corners.end());
         corners.erase(std::unique(corners.begin(), corners.end()), corners.end());
         std::sort(corners.begin(), corners.end(),
@@ -1659,23 +1731,57 @@ private:
     }
 };
 
+struct sorted_triple_hash {
+    std::size_t operator()(const std::array<index_t, 3>& k) const noexcept {
+        std::uint64_t h = (std::uint64_t(k[0]) << 32 | k[1]) * 0x9E3779B97F4A7C15ull;
+        h ^= (h >> 29) + std::uint64_t(k[2]) * 0xC2B2AE3D27D4EB4Full;
+        return std::size_t(h ^ (h >> 32));
+    }
+};
+
 /// Vertices of the result that the insertion created, found by exact position.
 class new_vertex_index {
 public:
-    explicit new_vertex_index(inserted_mesh& m)
-        : m_(m) {}
+    /// `expected`: about how many vertices will be added.
+    new_vertex_index(inserted_mesh& m, std::size_t expected)
+        : m_(m)
+        , first_(m.vertices.size()) {
+        by_approx_.reserve(expected);
+        next_.reserve(expected);
+        exact_.reserve(expected);
+    }
     index_t find_or_add(const point& p) {
-        auto& ids = by_approx_[key{p.approx.x, p.approx.y, p.approx.z}];
-        for (index_t id : ids)
-            if (p.is_double
-                    ? m_.is_exact_double(id)
-                    : (!m_.is_exact_double(id) && same_point(*p.exact, m_.unreduced.at(id))))
-                return id;
+        // Most positions have one vertex: the first by its doubles in the table, any
+        // others (distinct exact points with the same nearest doubles) chained after it.
+        const auto [it, fresh] = by_approx_.try_emplace(key{p.approx.x, p.approx.y, p.approx.z},
+                                                        index_t(m_.vertices.size()));
+        if (!fresh) {
+            index_t last = invalid_index;
+            for (index_t id = it->second; id != invalid_index; id = next_[id - first_]) {
+                const auto& q = exact_[id - first_];
+                // A point handed from tet to tet is one object: compared by address first.
+                if (p.is_double ? q == nullptr
+                                : q != nullptr && (q == p.exact || same_point(*p.exact, *q)))
+                    return id;
+                last = id;
+            }
+            next_[last - first_] = index_t(m_.vertices.size());
+        }
         const index_t id = index_t(m_.vertices.size());
         m_.vertices.push_back(p.approx);
-        if (!p.is_double) m_.unreduced.emplace(id, *p.exact);
-        ids.push_back(id);
+        next_.push_back(invalid_index);
+        exact_.push_back(p.is_double ? nullptr : p.exact);
         return id;
+    }
+    /// Hands the mesh the exact positions of the vertices added.
+    void finish() {
+        m_.unreduced.reserve(
+            m_.unreduced.size() +
+            std::size_t(std::count_if(exact_.begin(), exact_.end(),
+                                      [](const auto& q) { return q != nullptr; })));
+        for (std::size_t i = 0; i < exact_.size(); ++i)
+            if (exact_[i] != nullptr) m_.unreduced.emplace(index_t(first_ + i), *exact_[i]);
+        exact_.clear();
     }
 
 private:
@@ -1696,7 +1802,10 @@ private:
         }
     };
     inserted_mesh& m_;
-    std::unordered_map<key, std::vector<index_t>, key_hash> by_approx_;
+    std::size_t first_; // the first vertex this index adds
+    std::unordered_map<key, index_t, key_hash> by_approx_;
+    std::vector<index_t> next_; // per added vertex: the next with the same doubles
+    std::vector<std::shared_ptr<const homogeneous_point>> exact_; // per added vertex
 };
 
 } // namespace detail
@@ -1792,14 +1901,23 @@ inline inserted_mesh insert_triangles(const insertion_input& in) {
     // Assembly, in tet order: the numbering does not depend on the threads.
     inserted_mesh r;
     r.vertices = in.vertices;
-    new_vertex_index index(r);
-    std::map<std::array<index_t, 3>, std::size_t> tracked_at;
+    std::size_t tets = m - second_list.size(), new_points = 0, tracked = 0;
+    for (const tet_output& o : outputs) {
+        tets += o.tets.size(), tracked += o.tracked.size();
+        new_points += o.points.size() - 4;
+    }
+    r.tets.reserve(tets);
+    // A new point is in every tet around it: a few tets' outputs each.
+    new_vertex_index index(r, new_points / 2);
+    std::unordered_map<std::array<index_t, 3>, std::size_t, sorted_triple_hash> tracked_at;
+    tracked_at.reserve(tracked / 2 + 1);
     std::vector<std::vector<index_t>> tags;
     std::vector<index_t> local;
     std::size_t next = 0;
     for (index_t t = 0; t < m; ++t) {
         if (next < second_list.size() && second_list[next] == t) {
-            const tet_output& o = outputs[next++];
+            // Each output goes back to the heap once numbered, for the mesh to take.
+            const tet_output o = std::move(outputs[next++]);
             local.assign(o.points.size(), invalid_index);
             for (std::uint8_t i = 0; i < 4; ++i) local[i] = in.tets[t][i];
             auto global = [&](std::uint32_t p) {
@@ -1822,6 +1940,7 @@ inline inserted_mesh insert_triangles(const insertion_input& in) {
             r.tets.push_back(in.tets[t]);
         }
     }
+    index.finish();
     for (index_t t = 0; t < m; ++t) r.cut_tets += has_planes(t) ? 1 : 0;
     r.refined_tets = second_list.size() - r.cut_tets;
     for (auto& tg : tags) {
