@@ -1049,9 +1049,8 @@ private:
     std::vector<cell> cells_; // while cutting
     // The cells once cut, in one list: per cell its number of facets, per facet its
     // corners (count, then each), its input triangles (count, then each) and its parts
-    // along lines (count, then per part its support and corners). A cell holds tens of
-    // numbers, where its lists inline took a kilobyte, and the cutters of the first phase
-    // all live into the second: their size is the stage's memory and its page faults.
+    // along lines (count, then per part its support and corners): tens of numbers a
+    // cell, where its lists inline took a kilobyte (why size matters: below).
     std::vector<std::uint32_t> packed_;
     // Per plane: itself (every one exact), its key (4 * triangle + (0 | edge + 1), or a
     // face's), its sign at each point (2: not known yet). A cut tet has a few dozen at
