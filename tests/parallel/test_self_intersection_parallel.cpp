@@ -46,6 +46,34 @@ TEST_CASE_TEMPLATE("parallel no_self_intersection: decimation on 2 and 8 threads
     }
 }
 
+TEST_CASE("parallel no_self_intersection: a small detailed part far from the rest of its box") {
+    // A millimetre cube of 768 faces and a tetrahedron a kilometre away: the grid's cells
+    // could not be smaller than a quantum (1/65000 of the box) but their number, one lock
+    // word each, was the box's 65,001^3 quanta, and every parallel run failed for want of
+    // memory. The grid now stays within a few words per face.
+    using Mesh = tri_mesh<>;
+    auto [V, F] = idas::test::subdivided_cube<Mesh>(8).to_arrays();
+    for (vec3& p : V) p = p * 1e-3;
+    const auto far = index_t(V.size());
+    for (const vec3& p : {vec3{1000, 1000, 1000}, vec3{1001, 1000, 1000}, vec3{1000, 1001, 1000},
+                          vec3{1000, 1000, 1001}})
+        V.push_back(p);
+    for (const std::array<index_t, 3>& f :
+         {std::array<index_t, 3>{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}})
+        F.push_back({far + f[0], far + f[1], far + f[2]});
+    const Mesh scene(V, F);
+    {
+        const self_intersection_index index(scene);
+        CHECK(index.lock_cells() <= 16 * scene.n_faces() + 65536);
+    }
+    for (unsigned threads : {1u, 2u, 8u}) {
+        CAPTURE(threads);
+        const Mesh m =
+            decimated<qslim<Mesh, lock::vertex_try_lock>, qslim_spec>(scene, 0.5, threads);
+        CHECK(count_self_intersections(m) == 0);
+    }
+}
+
 TEST_CASE("parallel no_self_intersection: deterministic rounds give one file at any thread "
           "count") {
     using Mesh = tri_mesh<>;

@@ -140,6 +140,41 @@ struct box_block {
     }
 };
 
+/// The scan's first question to every entry of a cell: does its box overlap `around` (all
+/// the new faces' box), and does it start in this cell (`from`: the cell's first quantum on
+/// each axis where the cell is not on the scan's low side), so that a face met in several
+/// cells is taken once. Six compares of 16-bit lanes at once (SSE2; plain compares
+/// elsewhere): an entry is its box's six coordinates, then its face.
+struct entry_filter {
+    using entry = self_intersection_index::entry;
+    static_assert(sizeof(entry) == 16 && offsetof(entry, hi) == 6 && offsetof(entry, face) == 12);
+#if defined(__SSE2__)
+    __m128i upper, lower; // entry - upper and lower - entry (saturated) are 0 where kept
+    entry_filter(const entry& around, const std::array<std::uint16_t, 3>& from) noexcept {
+        auto lane = [](std::uint16_t x) { return std::int16_t(x); };
+        upper = _mm_setr_epi16(lane(around.hi[0]), lane(around.hi[1]), lane(around.hi[2]), -1, -1,
+                               -1, -1, -1);
+        lower = _mm_setr_epi16(lane(from[0]), lane(from[1]), lane(from[2]), lane(around.lo[0]),
+                               lane(around.lo[1]), lane(around.lo[2]), 0, 0);
+    }
+    bool keeps(const entry& g) const noexcept {
+        const __m128i e = _mm_loadu_si128(reinterpret_cast<const __m128i*>(&g));
+        const __m128i out = _mm_or_si128(_mm_subs_epu16(e, upper), _mm_subs_epu16(lower, e));
+        return _mm_movemask_epi8(_mm_cmpeq_epi16(out, _mm_setzero_si128())) == 0xffff;
+    }
+#else
+    entry around;
+    std::array<std::uint16_t, 3> from;
+    entry_filter(const entry& a, const std::array<std::uint16_t, 3>& f) noexcept
+        : around(a)
+        , from(f) {}
+    bool keeps(const entry& g) const noexcept {
+        return g.lo[0] >= from[0] && g.lo[1] >= from[1] && g.lo[2] >= from[2] &&
+               self_intersection_index::overlap(around, g);
+    }
+#endif
+};
+
 /// Whether the star of vertex a (the faces `faces`, all of them) is embedded: no two of
 /// its faces meet except along the edges and at the vertex they share. Shown at once:
 /// seen along the mean normal every face turns the same way (exact orientations) and
@@ -330,7 +365,7 @@ public:
         // of its box within `all`, that is, where its box starts at or after the cell's
         // first quantum on each axis where that cell is not on `all`'s low side.
         struct cell_at {
-            const std::vector<entry>* entries;
+            const self_intersection_index::cell* entries;
             std::array<std::uint16_t, 3> from;
         };
         boost::container::small_vector<cell_at, 32> cells;
@@ -356,20 +391,26 @@ public:
             std::uint32_t near; // bit k: new face k's box overlaps (the first 32 of them)
             bool beyond;        // a new face past the first 32 overlaps
         };
+        // The new faces' ids, hashed to one bit each: most entries are ruled out by it
+        // before the list is searched (a rewritten face's entry still has its old box).
+        std::uint64_t made_bits = 0;
+        for (const entry& e : made) made_bits |= std::uint64_t(1) << (e.face & 63u);
         boost::container::small_vector<candidate, 64> found;
-        for (const auto& [entries, from] : cells)
+        for (const auto& [entries, from] : cells) {
+            const si::entry_filter first(around, from);
             for (const entry& g : *entries) {
-                if (g.lo[0] < from[0] || g.lo[1] < from[1] || g.lo[2] < from[2] ||
-                    !overlap(around, g))
-                    continue;
+                if (!first.keeps(g)) continue;
                 const std::uint32_t near = boxes.overlapping(g);
                 bool beyond = false;
                 for (std::size_t k = si::box_block::max_faces; k < n && !beyond; ++k)
                     beyond = overlap(made[k], g);
-                if ((near == 0 && !beyond) || is_among(made, g.face)) continue;
+                if ((near == 0 && !beyond) ||
+                    ((made_bits >> (g.face & 63u) & 1u) && is_among(made, g.face)))
+                    continue;
                 __builtin_prefetch(&m.face_vertices(g.face));
                 found.push_back({g, near, beyond});
             }
+        }
         for (const candidate& c : found)
             if (m.face_alive(c.g.face))
                 for (index_t v : m.face_vertices(c.g.face)) __builtin_prefetch(&m.position(v));
@@ -383,7 +424,7 @@ public:
             auto meets = [&](std::size_t k) {
                 if (plane_separates(shape[k], gp, gv)) return false;
                 if (!built) other = si::triangle(gp, gv), built = true;
-                return si::meet(shape[k], other);
+                return faces_meet(shape[k], other, true);
             };
             for (std::uint32_t near = c.near; near != 0; near &= near - 1)
                 if (meets(std::size_t(std::countr_zero(near)))) return false;
@@ -433,33 +474,26 @@ private:
             while (k < n && made[k].face != f) ++k;
             const bool same_cells = k < n && ranges[k] == old;
             self_intersection_index::for_each_cell(old, [&](std::uint64_t key) {
-                auto* cell = index_->find_or_add(key);
-                if (!cell) return;
-                auto it = std::find_if(cell->begin(), cell->end(),
+                auto& cell = index_->find_or_add(key);
+                auto it = std::find_if(cell.begin(), cell.end(),
                                        [&](const entry& e) { return e.face == f; });
-                if (it == cell->end()) return;
+                if (it == cell.end()) return;
                 if (same_cells) {
                     *it = made[k]; // same cells, new box
                 } else {
-                    *it = cell->back();
-                    cell->pop_back();
+                    *it = cell.back();
+                    cell.pop_back();
                 }
             });
             if (same_cells) placed[k] = true;
         }
-        bool room = true;
         for (std::size_t k = 0; k < n; ++k) {
             if (placed[k]) continue;
             self_intersection_index::for_each_cell(ranges[k], [&](std::uint64_t key) {
-                if (auto* cell = index_->find_or_add(key))
-                    cell->push_back(made[k]);
-                else
-                    room = false;
+                index_->push(index_->find_or_add(key), made[k]);
             });
         }
-        // A full table cannot hold the face: refuse (the entries made so far are of faces
-        // that roll back into their old cells, where they still are).
-        return room;
+        return true;
     }
 
     self_intersection_index* index_ = nullptr;

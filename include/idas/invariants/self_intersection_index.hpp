@@ -1,7 +1,8 @@
 // The spatial index of no_self_intersection (no_self_intersection.hpp): the faces of a
 // triangle mesh in a uniform grid, each cell listing the faces whose bounding box overlaps
-// it. Cells live in an open-addressing table that never resizes, so workers holding
-// different cells can add cells and move faces at the same time.
+// it. The grid is addressed directly (a word per grid cell, naming the cell's record), and
+// the records are made once per build for every grid cell, so workers holding different
+// cells can add cells and move faces at the same time.
 #pragma once
 
 #include <idas/core/types.hpp>
@@ -17,8 +18,12 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <cstdlib>
+#include <cstring>
 #include <limits>
 #include <memory>
+#include <new>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -43,7 +48,8 @@ struct cell_range {
 /// box says which cells it is in, and a scan reads four entries per cache line.
 class self_intersection_index {
 public:
-    /// Grid cells per lock cell along each axis is 1 << lock_shift.
+    /// Grid cells per lock cell along each axis is 1 << lock_shift: one, for the words
+    /// that lock the cells are the directory's (lock_word).
     static constexpr int lock_shift = 0;
 
     /// One face in one cell: its id and its quantized bounding box.
@@ -51,6 +57,38 @@ public:
         std::array<std::uint16_t, 3> lo, hi;
         index_t face;
     };
+
+    /// One cell's entries. Trivial, so that a zeroed block of them is empty cells; each
+    /// lives in the index's block from the last build until it outgrows its room there.
+    /// Only the holder of the cell's lock cell touches it.
+    struct cell {
+        entry* items;
+        std::uint32_t count, room;
+
+        const entry* data() const noexcept { return items; }
+        std::size_t size() const noexcept { return count; }
+        bool empty() const noexcept { return count == 0; }
+        entry* begin() noexcept { return items; }
+        entry* end() noexcept { return items + count; }
+        const entry* begin() const noexcept { return items; }
+        const entry* end() const noexcept { return items + count; }
+        entry& back() noexcept { return items[count - 1]; }
+        void pop_back() noexcept { --count; }
+        /// Adds e; outgrown room moves to a heap block of twice the size (`owned`: items is
+        /// such a block already). Throws std::bad_alloc when memory runs out.
+        void push_back(const entry& e, bool owned) {
+            if (count == room) {
+                const std::uint32_t more = std::max<std::uint32_t>(8, 2 * room);
+                auto* grown = static_cast<entry*>(owned ? std::realloc(items, more * sizeof(entry))
+                                                        : std::malloc(more * sizeof(entry)));
+                if (!grown) throw std::bad_alloc();
+                if (!owned && count) std::memcpy(grown, items, count * sizeof(entry));
+                items = grown, room = more;
+            }
+            items[count++] = e;
+        }
+    };
+    static_assert(std::is_trivial_v<cell> && std::is_trivially_copyable_v<entry>);
 
     /// Indexes every live face of m. Cells are a power of two of quanta, between half of
     /// `cell_size` and all of it (default: four times the mean edge length), at least one
@@ -89,64 +127,72 @@ public:
         // A power of two of quanta per cell, so a cell coordinate is a shift away.
         cell_shift_ = 0;
         while (cell_shift_ < 15 && double(2u << cell_shift_) <= h * inv_quantum_) ++cell_shift_;
-        for (int i = 0; i < 3; ++i) {
+        for (int i = 0; i < 3; ++i)
             top_[i] = std::uint16_t(std::min(65535.0, std::ceil((hi[i] - lo[i]) * inv_quantum_)));
-            lock_dims_[i] = (std::int32_t(top_[i] >> cell_shift_) >> lock_shift) + 1;
+        // The grid's cells are addressed directly (and are the lock words): a mesh whose
+        // faces are tiny beside its box (a detailed part inside a large sparse frame) gets
+        // coarser cells, so that the grid stays within a few words per face.
+        const std::size_t most_cells = std::max<std::size_t>(16 * box.faces, std::size_t(1) << 16);
+        for (;; ++cell_shift_) {
+            for (int i = 0; i < 3; ++i) dims_[i] = std::int32_t(top_[i] >> cell_shift_) + 1;
+            if (cell_shift_ == 15 || grid_cells() <= most_cells) break;
         }
 
-        // Every (cell, face) pair, sorted by cell: counted, placed, sorted.
-        std::vector<std::size_t> first(std::size_t(slots) + 1, 0);
+        // Each cell's faces: counted (in the directory), given a record and room in one
+        // block, placed, then sorted by face (placing in parallel leaves them in any order).
+        const std::size_t n_cells = grid_cells();
+        release();
+        directory_.reset(static_cast<std::uint32_t*>(std::calloc(n_cells, sizeof(std::uint32_t))));
+        cells_ = static_cast<cell*>(std::calloc(n_cells, sizeof(cell)));
+        if (!directory_ || !cells_) throw std::bad_alloc();
         tbb::parallel_for(range(0, slots, 4096), [&](const range& r) {
             for (index_t f = r.begin(); f < r.end(); ++f)
-                first[f + 1] = m.face_alive(f) ? cells_in(range_of(entry_of(m, f))) : 0;
+                if (m.face_alive(f))
+                    for_each_cell(range_of(entry_of(m, f)), [&](std::uint64_t key) {
+                        std::atomic_ref<std::uint32_t>(directory_[dense(key)])
+                            .fetch_add(1, std::memory_order_relaxed);
+                    });
         });
-        for (std::size_t f = 0; f < slots; ++f) first[f + 1] += first[f];
-        std::vector<std::pair<std::uint64_t, index_t>> pairs(first[slots]);
+        std::size_t used = 0, room = 0;
+        for (std::size_t d = 0; d < n_cells; ++d)
+            if (const std::uint32_t count = directory_[d]) {
+                cells_[used].room = count + spare_room; // the block's share, for now
+                room += count + spare_room;
+                directory_[d] = std::uint32_t(++used);
+            }
+        used_.store(used, std::memory_order_relaxed);
+        block_ = static_cast<entry*>(std::malloc(std::max<std::size_t>(room, 1) * sizeof(entry)));
+        if (!block_) throw std::bad_alloc();
+        block_size_ = room;
+        for (std::size_t c = 0, at = 0; c < used; at += cells_[c].room, ++c)
+            cells_[c].items = block_ + at;
         tbb::parallel_for(range(0, slots, 4096), [&](const range& r) {
             for (index_t f = r.begin(); f < r.end(); ++f) {
                 if (!m.face_alive(f)) continue;
-                std::size_t at = first[f];
-                for_each_cell(range_of(entry_of(m, f)), [&](std::uint64_t key) {
-                    pairs[at++] = {key, f};
+                const entry e = entry_of(m, f);
+                for_each_cell(range_of(e), [&](std::uint64_t key) {
+                    cell& c = cells_[directory_[dense(key)] - 1];
+                    c.items[std::atomic_ref<std::uint32_t>(c.count).fetch_add(
+                        1, std::memory_order_relaxed)] = e;
                 });
             }
         });
-        tbb::parallel_sort(pairs.begin(), pairs.end());
-        std::vector<std::size_t> starts; // where each cell's pairs begin
-        for (std::size_t i = 0; i < pairs.size(); ++i)
-            if (i == 0 || pairs[i].first != pairs[i - 1].first) starts.push_back(i);
-        starts.push_back(pairs.size());
-        const std::size_t distinct = starts.size() - 1;
-        // Room for the cells operations will move faces into, without resizing in parallel:
-        // the table is at most half full with four times the cells it starts with. (Cells
-        // are never removed and growing faces cover ever more of them: with twice, a
-        // parallel decimation of armadillo x16 to 1% on 2 threads filled the table, and
-        // 33k collapses were refused for want of a cell; serial runs refit instead.)
-        capacity_ = 4 * distinct + 4096;
-        std::size_t n = 1;
-        while (n < 2 * capacity_) n *= 2;
-        mask_ = n - 1;
-        slots_ = std::make_unique<slot[]>(n);
-        used_.store(0, std::memory_order_relaxed);
-        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, distinct, 256),
-                          [&](const tbb::blocked_range<std::size_t>& r) {
-                              for (std::size_t c = r.begin(); c < r.end(); ++c) {
-                                  const std::size_t i = starts[c], j = starts[c + 1];
-                                  std::vector<entry>& cell = *find_or_add(pairs[i].first);
-                                  cell.reserve(j - i + 2);
-                                  for (std::size_t k = i; k < j; ++k)
-                                      cell.push_back(entry_of(m, pairs[k].second));
-                              }
-                          });
+        tbb::parallel_for(
+            tbb::blocked_range<std::size_t>(0, used, 1024),
+            [&](const tbb::blocked_range<std::size_t>& r) {
+                for (std::size_t c = r.begin(); c < r.end(); ++c)
+                    std::sort(cells_[c].begin(), cells_[c].end(),
+                              [](const entry& a, const entry& b) { return a.face < b.face; });
+            });
     }
 
     self_intersection_index(const self_intersection_index&) = delete;
     self_intersection_index& operator=(const self_intersection_index&) = delete;
+    ~self_intersection_index() { release(); }
 
     double cell_size() const noexcept { return double(1u << cell_shift_) * quantum_; }
-    std::size_t lock_cells() const noexcept {
-        return std::size_t(lock_dims_[0]) * lock_dims_[1] * lock_dims_[2];
-    }
+    /// Lock cells: the grid's cells (lock_shift is 0), one word each.
+    std::size_t lock_cells() const noexcept { return grid_cells(); }
     /// Live faces at the last (re)build.
     std::size_t faces_indexed() const noexcept { return faces_; }
     /// Grid cells that hold (or held) faces.
@@ -197,13 +243,13 @@ public:
         return l;
     }
     std::size_t lock_word(std::int32_t x, std::int32_t y, std::int32_t z) const noexcept {
-        return std::size_t(x) + std::size_t(lock_dims_[0]) *
-                                    (std::size_t(y) + std::size_t(lock_dims_[1]) * std::size_t(z));
+        return std::size_t(x) +
+               std::size_t(dims_[0]) * (std::size_t(y) + std::size_t(dims_[1]) * std::size_t(z));
     }
 
     /// The centre of the lock cell behind word w (see lock_word).
     vec3 lock_cell_centre(std::size_t w) const noexcept {
-        const std::size_t nx = std::size_t(lock_dims_[0]), ny = std::size_t(lock_dims_[1]);
+        const std::size_t nx = std::size_t(dims_[0]), ny = std::size_t(dims_[1]);
         const double x = double(w % nx), y = double(w / nx % ny), z = double(w / (nx * ny));
         const double side = double(1u << (cell_shift_ + lock_shift)) * quantum_;
         return origin_ + vec3{(x + 0.5) * side, (y + 0.5) * side, (z + 0.5) * side};
@@ -226,36 +272,29 @@ public:
 
     /// Starts loading the cell with key k (a scan asks for all its cells first, so that
     /// their cache misses overlap).
-    void prefetch(std::uint64_t k) const noexcept { __builtin_prefetch(&slots_[hash(k)]); }
+    void prefetch(std::uint64_t k) const noexcept { __builtin_prefetch(&directory_[dense(k)]); }
 
     /// The entries of the cell with key k, or null if no face was ever there. Safe while
     /// other threads add other cells (a cell's entries are touched only by the holder of
     /// its lock cell).
-    const std::vector<entry>* find(std::uint64_t k) const noexcept {
-        for (std::size_t s = hash(k);; s = (s + 1) & mask_) {
-            const std::uint64_t seen = slots_[s].key.load(std::memory_order_acquire);
-            if (seen == 0) return nullptr;
-            if (seen == k + 1) return &slots_[s].entries;
-        }
+    const cell* find(std::uint64_t k) const noexcept {
+        const std::uint32_t at =
+            std::atomic_ref<std::uint32_t>(directory_[dense(k)]).load(std::memory_order_acquire);
+        return at ? &cells_[at - 1] : nullptr;
     }
-    /// The entries of cell k, made if need be; null if the table is full (the caller
-    /// refuses its operation). Lock-free: keys are claimed by compare-and-swap and never
-    /// removed.
-    std::vector<entry>* find_or_add(std::uint64_t k) noexcept {
-        for (std::size_t s = hash(k);; s = (s + 1) & mask_) {
-            std::uint64_t seen = slots_[s].key.load(std::memory_order_acquire);
-            if (seen == 0) {
-                if (used_.fetch_add(1, std::memory_order_relaxed) >= capacity_) {
-                    used_.fetch_sub(1, std::memory_order_relaxed);
-                    return nullptr;
-                }
-                if (slots_[s].key.compare_exchange_strong(seen, k + 1, std::memory_order_acq_rel))
-                    return &slots_[s].entries;
-                used_.fetch_sub(1, std::memory_order_relaxed); // another key took the slot
-            }
-            if (seen == k + 1) return &slots_[s].entries;
+    /// The entries of cell k, made if need be (by its lock cell's holder: no other thread
+    /// adds the same cell).
+    cell& find_or_add(std::uint64_t k) noexcept {
+        std::atomic_ref<std::uint32_t> slot(directory_[dense(k)]);
+        std::uint32_t at = slot.load(std::memory_order_acquire);
+        if (!at) {
+            const auto made = std::uint32_t(used_.fetch_add(1, std::memory_order_relaxed) + 1);
+            at = slot.compare_exchange_strong(at, made, std::memory_order_acq_rel) ? made : at;
         }
+        return cells_[at - 1];
     }
+    /// Adds e to cell c, which find_or_add gave.
+    void push(cell& c, const entry& e) { c.push_back(e, c.items && !in_block(c.items)); }
 
 private:
     static constexpr double inf = std::numeric_limits<double>::infinity();
@@ -284,16 +323,33 @@ private:
             return r;
         }
     };
-    static std::size_t cells_in(const cell_range& r) noexcept {
-        return std::size_t(r.hi[0] - r.lo[0] + 1) * std::size_t(r.hi[1] - r.lo[1] + 1) *
-               std::size_t(r.hi[2] - r.lo[2] + 1);
-    }
 
-    /// A cell: its key (plus one; 0 while free) beside its entries.
-    struct slot {
-        std::atomic<std::uint64_t> key{0};
-        std::vector<entry> entries;
+    struct words_free {
+        void operator()(std::uint32_t* p) const noexcept { std::free(p); }
     };
+    bool in_block(const entry* p) const noexcept { return p >= block_ && p < block_ + block_size_; }
+    /// Frees the cells' records and what they point to: the build's block and what
+    /// outgrew it.
+    void release() noexcept {
+        if (cells_) {
+            const std::size_t used = used_.load(std::memory_order_relaxed);
+            for (std::size_t i = 0; i < used; ++i)
+                if (cells_[i].items && !in_block(cells_[i].items)) std::free(cells_[i].items);
+        }
+        std::free(cells_), std::free(block_);
+        cells_ = nullptr, block_ = nullptr, block_size_ = 0;
+        used_.store(0, std::memory_order_relaxed);
+    }
+    /// Extra room per cell in the build's block.
+    static constexpr std::uint32_t spare_room = 2;
+
+    std::size_t grid_cells() const noexcept {
+        return std::size_t(dims_[0]) * std::size_t(dims_[1]) * std::size_t(dims_[2]);
+    }
+    std::size_t dense(std::uint64_t k) const noexcept {
+        const auto [x, y, z] = coordinates(k);
+        return lock_word(x, y, z);
+    }
 
     // Quantized coordinates: monotone in x, clamped to [0, top] (NaN: the whole range).
     // A cast truncates, which is the floor of a positive number.
@@ -308,17 +364,16 @@ private:
         const auto t = std::uint16_t(q);
         return double(t) < q ? std::uint16_t(t + 1) : t;
     }
-    std::size_t hash(std::uint64_t k) const noexcept {
-        return std::size_t((k * 0x9E3779B97F4A7C15ull) >> 20) & mask_;
-    }
-
     vec3 origin_{};
     double quantum_ = 1, inv_quantum_ = 1;
     unsigned cell_shift_ = 0;
     std::array<std::uint16_t, 3> top_{0, 0, 0};
-    std::array<std::int32_t, 3> lock_dims_{1, 1, 1};
-    std::unique_ptr<slot[]> slots_;
-    std::size_t mask_ = 0, capacity_ = 0, faces_ = 0;
+    std::array<std::int32_t, 3> dims_{1, 1, 1};              // grid cells along each axis
+    std::unique_ptr<std::uint32_t[], words_free> directory_; // per grid cell: record + 1, or 0
+    cell* cells_ = nullptr;  // records (one per grid cell at most), in the order made
+    entry* block_ = nullptr; // the entries placed by the last build
+    std::size_t block_size_ = 0;
+    std::size_t faces_ = 0;
     std::atomic<std::size_t> used_{0};
 };
 

@@ -259,8 +259,9 @@ struct face_geometry {
 /// Faces f and g meet anywhere but at the vertices they share: the test for a surface's
 /// self-intersections. Most pairs are told apart first by a plane that floating point
 /// alone puts the other's corners beyond, then by a 2D view; the exact tests decide the
-/// rest.
-inline bool faces_meet(const face_geometry& f, const face_geometry& g) {
+/// rest. `f_plane_tried`: the caller has asked plane_separates(f, g) already (and it
+/// did not part them), so f's plane is not asked again.
+inline bool faces_meet(const face_geometry& f, const face_geometry& g, bool f_plane_tried = false) {
     const auto &p = f.p, &q = g.p;
     int shared = 0, pi[3] = {0, 0, 0}, qj[3] = {0, 0, 0}; // pi[k], qj[k]: k-th shared pair
     unsigned shared_p = 0, shared_q = 0;                  // bit k: corner k is shared
@@ -281,7 +282,8 @@ inline bool faces_meet(const face_geometry& f, const face_geometry& g) {
         }
         return true;
     };
-    if (beyond(f.plane, q, shared_q) || beyond(g.plane, p, shared_p)) return false;
+    if ((!f_plane_tried && beyond(f.plane, q, shared_q)) || beyond(g.plane, p, shared_p))
+        return false;
     const detail::intersection::projection seen(p, q);
     switch (shared) {
     case 0:
