@@ -143,7 +143,7 @@ public:
         const std::size_t n_cells = grid_cells();
         release();
         directory_.reset(static_cast<std::uint32_t*>(std::calloc(n_cells, sizeof(std::uint32_t))));
-        cells_ = static_cast<cell*>(std::calloc(n_cells, sizeof(cell)));
+        cells_.reset(static_cast<cell*>(std::calloc(n_cells, sizeof(cell))));
         if (!directory_ || !cells_) throw std::bad_alloc();
         tbb::parallel_for(range(0, slots, 4096), [&](const range& r) {
             for (index_t f = r.begin(); f < r.end(); ++f)
@@ -161,11 +161,12 @@ public:
                 directory_[d] = std::uint32_t(++used);
             }
         used_.store(used, std::memory_order_relaxed);
-        block_ = static_cast<entry*>(std::malloc(std::max<std::size_t>(room, 1) * sizeof(entry)));
+        block_.reset(
+            static_cast<entry*>(std::malloc(std::max<std::size_t>(room, 1) * sizeof(entry))));
         if (!block_) throw std::bad_alloc();
         block_size_ = room;
         for (std::size_t c = 0, at = 0; c < used; at += cells_[c].room, ++c)
-            cells_[c].items = block_ + at;
+            cells_[c].items = block_.get() + at;
         tbb::parallel_for(range(0, slots, 4096), [&](const range& r) {
             for (index_t f = r.begin(); f < r.end(); ++f) {
                 if (!m.face_alive(f)) continue;
@@ -324,20 +325,21 @@ private:
         }
     };
 
-    struct words_free {
-        void operator()(std::uint32_t* p) const noexcept { std::free(p); }
+    /// The directory, records and block come from calloc/malloc (zeroed memory is empty
+    /// cells, untouched pages cost nothing).
+    struct frees {
+        void operator()(void* p) const noexcept { std::free(p); }
     };
-    bool in_block(const entry* p) const noexcept { return p >= block_ && p < block_ + block_size_; }
+    bool in_block(const entry* p) const noexcept {
+        return p >= block_.get() && p < block_.get() + block_size_;
+    }
     /// Frees the cells' records and what they point to: the build's block and what
     /// outgrew it.
     void release() noexcept {
-        if (cells_) {
-            const std::size_t used = used_.load(std::memory_order_relaxed);
-            for (std::size_t i = 0; i < used; ++i)
+        if (cells_)
+            for (std::size_t i = 0, used = used_.load(std::memory_order_relaxed); i < used; ++i)
                 if (cells_[i].items && !in_block(cells_[i].items)) std::free(cells_[i].items);
-        }
-        std::free(cells_), std::free(block_);
-        cells_ = nullptr, block_ = nullptr, block_size_ = 0;
+        cells_.reset(), block_.reset(), block_size_ = 0;
         used_.store(0, std::memory_order_relaxed);
     }
     /// Extra room per cell in the build's block.
@@ -368,10 +370,10 @@ private:
     double quantum_ = 1, inv_quantum_ = 1;
     unsigned cell_shift_ = 0;
     std::array<std::uint16_t, 3> top_{0, 0, 0};
-    std::array<std::int32_t, 3> dims_{1, 1, 1};              // grid cells along each axis
-    std::unique_ptr<std::uint32_t[], words_free> directory_; // per grid cell: record + 1, or 0
-    cell* cells_ = nullptr;  // records (one per grid cell at most), in the order made
-    entry* block_ = nullptr; // the entries placed by the last build
+    std::array<std::int32_t, 3> dims_{1, 1, 1};         // grid cells along each axis
+    std::unique_ptr<std::uint32_t[], frees> directory_; // per grid cell: record + 1, or 0
+    std::unique_ptr<cell[], frees> cells_; // records (one per grid cell at most), in the order made
+    std::unique_ptr<entry[], frees> block_; // the entries placed by the last build
     std::size_t block_size_ = 0;
     std::size_t faces_ = 0;
     std::atomic<std::size_t> used_{0};
