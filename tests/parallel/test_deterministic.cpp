@@ -258,9 +258,12 @@ TEST_CASE("deterministic rounds: harmonic triangulation of 10k points, the same 
     check_same_harmonic_file(io::gaussian_points(10000, 7), {1u, 2u, 4u, 8u});
 }
 
-// Phases that add no simplex and have no goal (the 3-2 flips, the smoothing passes) run
+// Phases that add no vertex and have no goal (the 3-2 flips, the smoothing passes) run
 // most of their entries in groups of shards before any round, and still do the same
-// thing at every thread count; the seeded flips (2-3 swaps add a tet) run in rounds only.
+// thing at every thread count; an entry refused at a group's border skips the levels
+// whose groups could not hold its region either, so a smoothing entry is popped fewer
+// than twice on average (once a level up at a time: about three times). The seeded flips,
+// held to one thread by the schedule, run serially: no rounds, no groups.
 TEST_CASE("deterministic rounds: harmonic phases without new simplices run in groups first") {
     const auto points = io::gaussian_points(40000, 5);
     std::vector<std::string> reference;
@@ -274,10 +277,12 @@ TEST_CASE("deterministic rounds: harmonic phases without new simplices run in gr
             CAPTURE(phase);
             if (phase == 2) {
                 CHECK(r.grouped == 0);
+                CHECK(r.rounds == 0);
             } else {
                 CHECK(r.grouped > r.attempted / 2);
                 CHECK(r.grouped <= r.attempted);
             }
+            if (phase == 1) CHECK(r.popped < 2 * r.attempted);
             phases.push_back(counts(r));
         };
         harmonic_triangulation<tet_mesh<>, det>::run_observed(m, o, observe);
@@ -287,6 +292,34 @@ TEST_CASE("deterministic rounds: harmonic phases without new simplices run in gr
             reference = phases;
         else
             CHECK(phases == reference);
+    }
+}
+
+// The complete mode's flips add a tet (2-3 swaps), so the groups take new tets from slot
+// pools of their own, one a group, dealt in a fixed order before each level: the same
+// mesh at 1 and 3 threads, most of it made in groups, a valid mesh with no flat tet.
+TEST_CASE("deterministic rounds: flips that add tets run in groups, each with its own slots") {
+    const auto points = io::gaussian_points(8000, 3);
+    std::string reference, reference_report;
+    for (const unsigned threads : {1u, 3u}) {
+        CAPTURE(threads);
+        auto m = test::delaunay_mesh(points);
+        harmonic_flip_spec<harmonic_mode::complete> flips{{true}};
+        const auto r = executor<harmonic_flip_spec<harmonic_mode::complete>, tet_mesh<>, det,
+                                queue::fifo>::run(m, flips, {.threads = threads});
+        CHECK(r.succeeded > 1000);
+        CHECK(r.grouped > r.attempted / 2);
+        CHECK(find_inconsistency(m, true) == std::nullopt);
+        CHECK(test::inverted_or_flat_tets(m) == 0);
+        const auto [V, T] = m.to_arrays();
+        std::string bytes(reinterpret_cast<const char*>(V.data()), V.size() * sizeof(V[0]));
+        bytes.append(reinterpret_cast<const char*>(T.data()), T.size() * sizeof(T[0]));
+        if (threads == 1) {
+            reference = bytes, reference_report = counts(r);
+        } else {
+            CHECK(bytes == reference);
+            CHECK(counts(r) == reference_report);
+        }
     }
 }
 

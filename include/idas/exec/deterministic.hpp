@@ -17,7 +17,7 @@
 //  - a spec's goal (`remaining`) caps the winners of a round, best first, so a target
 //    face count is met exactly, as in a serial run.
 //
-// Before the rounds, a phase whose operations add no simplex lets fixed groups of shards
+// Before the rounds, a phase whose operations add no vertex lets fixed groups of shards
 // run what stays inside them, the groups in parallel (own_shards_first); with a goal, in
 // priority bands, each shard with a budget (run_in_bands).
 //
@@ -34,6 +34,8 @@
 
 #include <algorithm>
 #include <atomic>
+#include <bit>
+#include <cmath>
 #include <cstdint>
 #include <limits>
 #include <memory>
@@ -224,12 +226,13 @@ private:
 
     // -------------------------------------------------- shards on their own ----
 
-    /// Phases whose operations add no simplex (smoothing, collapses, 3-2 flips) first let
-    /// groups of shards run their own entries, those whose lock region lies in the group's
-    /// vertices, the groups in parallel. Such an entry reads and writes only what its
-    /// region freezes (claim.hpp), and no other group's entry holds any of it, so what a
-    /// group does depends on its own entries only, never on the threads or on timing; no
-    /// vertex is added, so every vertex stays in its shard. An entry whose region crosses
+    /// Phases whose operations add no vertex (smoothing, collapses, flips and swaps) first
+    /// let groups of shards run their own entries, those whose lock region lies in the
+    /// group's vertices, the groups in parallel. Such an entry reads and writes only what
+    /// its region freezes (claim.hpp), and no other group's entry holds any of it, so what
+    /// a group does depends on its own entries only, never on the threads or on timing; no
+    /// vertex is added, so every vertex stays in its shard, and new cells come from the
+    /// group's own slot pool (deal_group_pools). An entry whose region crosses
     /// into another group (or into another group's space, an invariant's lock cells: see
     /// own_space) waits for the next level, where neighbouring groups on the Morton curve
     /// are merged in pairs (64 shards, then 32 groups, 16, 8, 4, 2), and what crosses even
@@ -243,7 +246,9 @@ private:
     /// (`remaining`) runs the groups in bands (run_in_bands). Not for a spec whose
     /// invariant claims space it cannot locate.
     using invariants_type = std::remove_cvref_t<decltype(spec_invariants(std::declval<Spec&>()))>;
-    static constexpr bool groups_apply = !ops::adds_simplices && invariants_type::locates_space;
+    static constexpr bool groups_apply =
+        invariants_type::locates_space &&
+        (!ops::adds_simplices || (Mesh::parallel_growth && !ops::adds_vertices));
     static constexpr unsigned group_levels = 7; // groups of 1, 2, 4, ... 64 shards
 
     /// A spec with a goal (a decimation to a face count) must stop where a serial order
@@ -335,18 +340,24 @@ private:
     }
 
     void own_shards_first() {
-        const std::size_t V = part_.size();
         // The cells keep their owners from band to band while their number stays: any
         // fixed owner is correct, and sorting the curve again for every band took a tenth
         // of a banded decimation (x4, shortest edge to 1%).
         if constexpr (invariants_type::claims_space)
-            if (spec_invariants(spec_).extra_lock_words(m_) != space_owner_.size()) own_space(V);
+            if (spec_invariants(spec_).extra_lock_words(m_) != space_owner_.size())
+                own_space(part_.size());
         for (unsigned level = 0; level < group_levels; ++level) {
             const unsigned width = 1u << level;
+            if constexpr (ops::adds_simplices) deal_group_pools(level);
+            const std::size_t V = part_.size();
             parallel_chunks(pool_, K / width, 1, [&](std::size_t b, std::size_t e, unsigned th) {
                 for (std::size_t g = b; g < e; ++g)
                     run_group(static_cast<unsigned>(g), level, V, *threads_[th], th);
             });
+            if constexpr (ops::adds_simplices) {
+                m_.end_parallel();
+                m_.set_slot_recycling(false); // end_parallel turned it on
+            }
         }
         std::uint64_t successes = 0;
         for (auto& t : threads_) {
@@ -355,6 +366,37 @@ private:
             t->group_face_delta = t->group_vertex_delta = 0;
         }
         live_.successes = successes;
+    }
+
+    /// Groups whose operations add cells (a 2-3 swap) take their slots from pools of their
+    /// own, one a group, dealt before each level: the room the spec expects the phase to
+    /// need (its parallel_growth), shared in proportion to the entries each group holds,
+    /// and never more than those entries could use. So the new cells' numbers depend on the
+    /// group's own operations only. An operation that finds its group's pool too small
+    /// waits for the next level (after the last, for the rounds, which deal a pool per
+    /// operation). Operations that add vertices (splits) are left to the rounds: a group
+    /// would refine its side of a seam before the long edges across it, against the
+    /// longest-first order, and the fans around those edges split again and again (the
+    /// sphere's first tet-mesh split phase: 9,749 splits in rounds, 89,174 in groups).
+    void deal_group_pools(unsigned level) {
+        const unsigned groups = K >> level, width = 1u << level;
+        if (level == 0) phase_growth_ = hooks::parallel_growth(spec_, m_).second;
+        group_entries_.assign(groups, 0);
+        std::size_t all = 0;
+        for (unsigned s = 0; s < K; ++s) {
+            const std::size_t n = shards_[s].q.size() + shards_[s].front.size();
+            group_entries_[s / width] += n, all += n;
+        }
+        vertex_quota_.assign(groups, 0), cell_quota_.assign(groups, 0);
+        for (unsigned g = 0; g < groups; ++g) {
+            const double n = double(group_entries_[g]);
+            const double share =
+                std::ceil(double(phase_growth_) * n / double(std::max<std::size_t>(all, 1)));
+            cell_quota_[g] =
+                static_cast<index_t>(std::min(share, n * double(ops::most_faces_added)));
+        }
+        m_.begin_parallel(std::span<const index_t>(vertex_quota_),
+                          std::span<const index_t>(cell_quota_));
     }
 
     /// An invariant's space (the lock cells of a spatial index) goes to the groups too:
@@ -394,10 +436,13 @@ private:
         for (unsigned s = first; s < first + width; ++s) {
             shard& sh = shards_[s];
             budget += std::exchange(sh.budget, 0);
-            // The front is in pop order, so what lies inside the band comes first.
-            std::size_t f = 0;
-            for (; f < sh.front.size() && in_band(sh.front[f]); ++f) heap.push(sh.front[f]);
-            sh.front.erase(sh.front.begin(), sh.front.begin() + std::ptrdiff_t(f));
+            // The heap's pops do not depend on the order of its pushes, so the front need
+            // not be in pop order here (only the rounds merge it with the queue's pops).
+            std::erase_if(sh.front, [&](const entry& x) {
+                if (!in_band(x) || wake_level(x) > level) return false;
+                heap.push(x);
+                return true;
+            });
             for (entry e; sh.q.pop(e);) {
                 if (!in_band(e)) {
                     sh.q.push(e);
@@ -408,10 +453,19 @@ private:
         }
         op_context<Mesh>& ctx = *me.ctx;
         ctx.worker = th;
-        auto in_group = [&](index_t v) {
-            if (v < V) return (part_[v] >> level) == g;
+        if constexpr (ops::adds_simplices) ctx.conn.pool = g; // the group's own slots
+        // The shard of a lock word (group_levels: none, so only the rounds can take it).
+        auto shard_of = [&](index_t v) -> unsigned {
+            if (v < V) return part_[v];
             const std::size_t w = v - V;
-            return w < space_owner_.size() && unsigned(space_owner_[w] >> level) == g;
+            return w < space_owner_.size() ? space_owner_[w] : K;
+        };
+        auto in_group = [&](index_t v) { return (shard_of(v) >> level) == g; };
+        index_t refused = invalid_index; // the word a claim found outside the group
+        auto claimable = [&](index_t v) {
+            if (in_group(v)) return true;
+            refused = v;
+            return false;
         };
         // An entry that cannot run here waits in its vertex's shard (or the group's first).
         auto home_of = [&](const tuple& t) -> shard& {
@@ -429,13 +483,35 @@ private:
             ops::dispatch(e.kind, [&](auto op) {
                 using Op = decltype(op);
                 tuple t = e.tuple;
-                const claim_result c = claim_footprint<Op>(spec_, m_, t, in_group);
+                refused = invalid_index;
+                const claim_result c = claim_footprint<Op>(spec_, m_, t, claimable);
                 if (c == claim_result::stale) return void(++home.report.stale);
-                if (c == claim_result::busy) return home_of(e.tuple).front.push_back(e);
+                if (c == claim_result::busy) {
+                    // It waits for the first level whose group holds both its shard and
+                    // the word it was refused: its region reached that word, and a region
+                    // changes only where an operation next to it ran (never in a
+                    // smoothing phase), so trying it at the levels between would mostly
+                    // fail again. Harmonic smoothing of 200k points popped 543k entries
+                    // when each went one level up, 309k now. The choice depends on the
+                    // group's own mesh only.
+                    shard& wait = home_of(e.tuple);
+                    const unsigned across =
+                        refused == invalid_index
+                            ? 0u
+                            : shard_of(refused) ^ unsigned(&wait - shards_.data());
+                    wake_level(e) = static_cast<std::uint8_t>(
+                        std::max<unsigned>(level + 1, std::bit_width(across)));
+                    return wait.front.push_back(e);
+                }
                 entry current = e;
                 current.tuple = t;
                 if (!hooks::template should_process<Op>(spec_, m_, current))
                     return void(++home.report.skipped);
+                if constexpr (ops::adds_simplices)
+                    if (!m_.has_room(Op::adds_vertices, Op::adds_faces, g)) {
+                        wake_level(e) = static_cast<std::uint8_t>(level + 1);
+                        return home_of(e.tuple).front.push_back(e);
+                    }
                 const std::int64_t fd = ctx.face_delta, vd = ctx.vertex_delta;
                 const std::uint64_t succeeded = me.report.succeeded;
                 ++me.report.grouped;
@@ -452,11 +528,23 @@ private:
             });
         }
         home.budget = budget;
-        // The rounds merge each front with its queue's pops: pop order.
-        for (unsigned s = first; s < first + width; ++s)
-            std::sort(shards_[s].front.begin(), shards_[s].front.end(),
-                      [](const entry& a, const entry& b) { return pops_before(a, b); });
+        ctx.conn.pool = 0;
+        // The rounds after the last level merge each front with its queue's pops, so the
+        // fronts go into pop order there; the groups before take them in any order.
+        if (level + 1 == group_levels)
+            for (unsigned s = first; s < first + width; ++s) {
+                auto& front = shards_[s].front;
+                for (entry& x : front) wake_level(x) = 0;
+                std::sort(front.begin(), front.end(),
+                          [](const entry& a, const entry& b) { return pops_before(a, b); });
+            }
     }
+
+    /// The first level whose groups may try an entry that waits in a front (see run_group).
+    /// Kept in the entry's `retries`, which no other part of this engine uses (and which no
+    /// order reads).
+    static std::uint8_t& wake_level(entry& e) noexcept { return e.retries; }
+    static std::uint8_t wake_level(const entry& e) noexcept { return e.retries; }
 
     // ------------------------------------------------------------- rounds ----
 
@@ -865,7 +953,9 @@ private:
     static constexpr std::uint32_t no_region = ~std::uint32_t(0);
     std::vector<std::vector<index_t>> region_words_;
     std::vector<std::pair<std::uint32_t, std::uint32_t>> region_of_;
-    std::vector<index_t> vertex_quota_, cell_quota_;
+    std::vector<index_t> vertex_quota_, cell_quota_; // a pool's slots: a winner's or a group's
+    index_t phase_growth_ = 0; // the cells of the spec's parallel_growth, at level 0
+    std::vector<std::size_t> group_entries_;
     std::vector<std::int64_t> face_delta_, vertex_delta_;
     std::unique_ptr<std::atomic<std::uint64_t>[]> marks_;
     std::unique_ptr<std::uint32_t[]> taken_; // the round whose winner's region holds it

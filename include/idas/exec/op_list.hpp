@@ -3,6 +3,8 @@
 // string, no virtual call.
 #pragma once
 
+#include <algorithm>
+
 #include <idas/ops/operation.hpp>
 
 #include <cstddef>
@@ -54,6 +56,9 @@ struct op_list_traits<op_list<Ops...>> {
         (fn(Ops{}), ...);
     }
     static constexpr bool adds_simplices = ((Ops::adds_vertices + Ops::adds_faces > 0) || ...);
+    static constexpr bool adds_vertices = ((Ops::adds_vertices > 0) || ...);
+    /// The most top cells one operation of the list adds.
+    static constexpr index_t most_faces_added = std::max({index_t(Ops::adds_faces)...});
     static constexpr bool changes_connectivity = (idas::changes_connectivity<Ops> || ...);
 
     /// Whether the entry kind at `kind` acts on a vertex (its entry follows the vertex,

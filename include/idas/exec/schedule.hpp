@@ -121,7 +121,13 @@ private:
     template <std::size_t At, class Ctx, class Spec, class Q, unsigned T>
     static pass step(Ctx& c, phase<Spec, Q, T>*) {
         using queue = std::conditional_t<std::is_same_v<Q, default_queue>, Queue, Q>;
-        using algorithm = executor<Spec, Mesh, Lock, queue, Partition>;
+        // A phase held to one thread runs on one thread at every thread count of the run,
+        // so a deterministic run may take it serially: the same mesh whatever the threads,
+        // without the rounds (harmonic triangulation's seeded flips: four times the
+        // serial executor's time in rounds; bench/RESULTS.md, "Session 36").
+        using phase_lock =
+            std::conditional_t<T == 1 && deterministic_policy<Lock>, lock::none, Lock>;
+        using algorithm = executor<Spec, Mesh, phase_lock, queue, Partition>;
         exec_options o = c.options;
         if (T > 0 && o.threads > T) o.threads = T;
         const run_report rr = algorithm::run(c.m, spec_of<Spec>(c.specs), o);
