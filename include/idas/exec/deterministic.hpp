@@ -507,7 +507,7 @@ private:
                 current.tuple = t;
                 if (!hooks::template should_process<Op>(spec_, m_, current))
                     return void(++home.report.skipped);
-                if constexpr (ops::adds_simplices)
+                if constexpr (Op::adds_vertices + Op::adds_faces > 0)
                     if (!m_.has_room(Op::adds_vertices, Op::adds_faces, g)) {
                         wake_level(e) = static_cast<std::uint8_t>(level + 1);
                         return home_of(e.tuple).front.push_back(e);

@@ -3,10 +3,9 @@
 // string, no virtual call.
 #pragma once
 
-#include <algorithm>
-
 #include <idas/ops/operation.hpp>
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <type_traits>
