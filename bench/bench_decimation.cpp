@@ -55,6 +55,8 @@
 //                      x4/x16 armadillo itself, the same surface as its subdivisions). out_in
 //                      samples the output and measures to the input (how far the result strays);
 //                      symmetric is the max of both ways.
+//   mean_distance_*    the mean distance of the same samples to the other surface, divided
+//                      by the diagonal (out_in: samples on the output; in_out: on the input).
 //   peak_rss_delta_mb  getrusage(RUSAGE_SELF) peak RSS once the decimation is done and its
 //                      result extracted (before the Hausdorff step), minus the RSS once the
 //                      input arrays are loaded: the peer's mesh, its working memory and the
@@ -515,13 +517,15 @@ int run(const options& o) {
     const std::size_t crossings =
         idas::count_self_intersections(idas_mesh(r.output.vertices, r.output.faces));
 
-    double h_out_in = -1, h_in_out = -1, h_seconds = 0;
+    double h_out_in = -1, h_in_out = -1, mean_out_in = -1, mean_in_out = -1, h_seconds = 0;
     if (o.samples > 0 && output_faces > 0) {
         const stopwatch clock;
         const cgal_mesh a = to_cgal(base), b = to_cgal(r.output);
         const double per_area = o.samples / area;
         h_out_in = hausdorff(b, a, per_area) / diagonal;
         h_in_out = hausdorff(a, b, per_area) / diagonal;
+        mean_out_in = mean_distance(b, a, per_area) / diagonal;
+        mean_in_out = mean_distance(a, b, per_area) / diagonal;
         h_seconds = clock.seconds();
     }
 
@@ -530,6 +534,7 @@ int run(const options& o) {
         "\"ratio\":%g,\"target_faces\":%lld,\"threads\":%u,\"seconds_algorithm\":%.6f,"
         "\"output_faces\":%lld,\"output_vertices\":%zu,\"face_error\":%.6g,"
         "\"hausdorff_out_in\":%.6g,\"hausdorff_symmetric\":%.6g,\"hausdorff_samples_per_area\":%g,"
+        "\"mean_distance_out_in\":%.6g,\"mean_distance_in_out\":%.6g,"
         "\"seconds_hausdorff\":%.3f,\"rss_loaded_mb\":%.1f,\"peak_rss_mb\":%.1f,"
         "\"peak_rss_delta_mb\":%.1f,\"peak_reset\":%s,\"manifold\":%s,\"euler\":%ld,"
         "\"shuffle\":%u,\"serial_tail_per_part\":%lld,\"serial_tail_share\":%g,"
@@ -538,10 +543,10 @@ int run(const options& o) {
         o.peer.c_str(), algorithm.c_str(), o.input.c_str(), (long long)input_faces, o.ratio,
         (long long)target, o.threads, r.seconds, (long long)output_faces, r.output.vertices.size(),
         double(output_faces - target) / double(target), h_out_in, std::max(h_out_in, h_in_out),
-        o.samples, h_seconds, rss_loaded, peak, peak - rss_loaded, peak_reset ? "true" : "false",
-        topo.editable() ? "true" : "false", static_cast<long>(topo.euler_characteristic), o.shuffle,
-        o.serial_tail, serial_tail_share, refuse_self_intersections ? "true" : "false", crossings,
-        r.extra.c_str());
+        o.samples, mean_out_in, mean_in_out, h_seconds, rss_loaded, peak, peak - rss_loaded,
+        peak_reset ? "true" : "false", topo.editable() ? "true" : "false",
+        static_cast<long>(topo.euler_characteristic), o.shuffle, o.serial_tail, serial_tail_share,
+        refuse_self_intersections ? "true" : "false", crossings, r.extra.c_str());
     return 0;
 }
 

@@ -57,8 +57,11 @@ struct deterministic_rounds {
     /// than any machine's cores here, so every thread has shards to fill and drain.
     static constexpr unsigned shards = 64;
     /// A spec with a goal runs its groups in bands while it still wants this many
-    /// operations; the last ones run in rounds only (deterministic_engine::run_in_bands).
-    static constexpr std::int64_t min_band_goal = 1024;
+    /// operations (deterministic_engine::run_in_bands): to the last one, as the rounds of
+    /// a band pick only among the band's entries, closer to the serial order than
+    /// unbounded rounds, which ran the last 1,024 collapses 5% further from the input on
+    /// average (bench/RESULTS.md, "Session 37").
+    static constexpr std::int64_t min_band_goal = 1;
 
     template <class Run>
     static void execute(Run& run);
@@ -258,12 +261,13 @@ private:
     /// together cannot pass the goal), the groups run what lies inside the band within
     /// their budgets (a budget left over goes with the shard into the next level's group),
     /// and rounds bounded by the band run what the budgets left. Then the next band, until
-    /// the goal is small: the rounds, best first, make the last operations exactly as
-    /// before. Budgets, bands and groups depend on counts alone, never on the threads.
+    /// the goal is met: the last bands are a handful of operations, and their rounds, best
+    /// first, make them as a serial run would. Budgets, bands and groups depend on counts
+    /// alone, never on the threads.
     /// Rounds alone made QSlim to 10% of armadillo x4 1.5 times as slow as the try-lock
     /// executor (bench/RESULTS.md, "Session 31").
     static constexpr std::int64_t band_share_inverse = 2; // a band: half the goal's entries
-    static constexpr unsigned max_bands = 32;
+    static constexpr unsigned max_bands = 64;             // then rounds, unbounded, finish
 
     void run_in_bands() {
         for (unsigned band = 0; band < max_bands && !hooks::should_stop(spec_, live_); ++band) {
