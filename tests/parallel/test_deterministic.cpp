@@ -125,25 +125,6 @@ TEST_CASE("deterministic rounds: the corner-table backend is deterministic too")
     }
 }
 
-/// The area-weighted mean distance of (V, F)'s samples (surface_distance.hpp's) to the
-/// surface of `reference`. The Hausdorff distance is one sample's; this weighs them all.
-double mean_sampled_distance(const std::vector<vec3>& V, const std::vector<tri_indices>& F,
-                             const triangle_aabb_tree& reference, int samples_per_face) {
-    double weighted = 0, area = 0;
-    for (const auto& t : F) {
-        const double a = 0.5 * norm(cross(V[t[1]] - V[t[0]], V[t[2]] - V[t[0]]));
-        double sum = 0;
-        int n = 0;
-        idas::detail::for_each_triangle_sample(V[t[0]], V[t[1]], V[t[2]], samples_per_face,
-                                               [&](const vec3& p) {
-                                                   sum += std::sqrt(reference.squared_distance(p));
-                                                   ++n;
-                                               });
-        weighted += a * sum / n, area += a;
-    }
-    return area > 0 ? weighted / area : 0.0;
-}
-
 TEST_CASE("deterministic rounds: QSlim stays near the serial executor's result") {
     // Rounds and bands run non-overlapping collapses of the best entries together, not one
     // at a time, so the order differs a little from a serial run's, and so does where the
