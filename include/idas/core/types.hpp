@@ -14,8 +14,10 @@
 /// (bench/RESULTS.md, "Executor refactoring (issue 15)", session 19).
 #if defined(__GNUC__)
 #define IDAS_ALWAYS_INLINE [[gnu::always_inline]] inline
+#define IDAS_ALWAYS_INLINE_LAMBDA __attribute__((always_inline))
 #else
 #define IDAS_ALWAYS_INLINE inline
+#define IDAS_ALWAYS_INLINE_LAMBDA
 #endif
 
 namespace idas {
