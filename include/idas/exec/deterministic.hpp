@@ -452,7 +452,7 @@ private:
         // The group's entries are sorted once and merged with a heap of what its
         // operations renew: a smoothing pass renews nothing, and pushing every entry
         // through a heap (and before that, through its shard's queue, whose ties compare
-        // by hash) cost harmonic smoothing a fifth of its time on one thread.
+        // by hash) cost harmonic smoothing a sixth of its time on one thread.
         auto& sorted = me.group_sorted;
         auto& renewed = me.group_renewed;
         sorted.clear(), renewed.clear();
