@@ -132,7 +132,8 @@ class deterministic_engine {
         // run_group's queue, in plain priority order (ties by slot): what the group
         // starts with, sorted, and a heap of what its operations renew; and what its
         // successes changed of the live counts.
-        std::vector<typename Run::entry> group_sorted, group_renewed;
+        std::vector<typename Run::entry> group_sorted;
+        typename queue::binary_heap::template type<typename Run::entry> group_renewed;
         std::int64_t group_face_delta = 0, group_vertex_delta = 0;
     };
     /// What became of a candidate this round; all but `ran` go back to their shard.
@@ -467,28 +468,21 @@ private:
                 sorted.push_back(x);
                 return true;
             });
-            if (sh.q.size() > 0)
-                sh.q.erase_if([&](const entry& x) {
-                    if (!in_band(x)) return false;
-                    sorted.push_back(x);
-                    return true;
-                });
+            sh.q.erase_if([&](const entry& x) {
+                if (!in_band(x)) return false;
+                sorted.push_back(x);
+                return true;
+            });
         }
         std::sort(sorted.begin(), sorted.end(),
                   [](const auto& a, const auto& b) { return pops_before(a, b); });
-        const auto later = [](const auto& a, const auto& b) { return pops_before(b, a); };
         std::size_t next_sorted = 0;
-        // The group's best entry: the sorted one's or the renewed heap's top.
+        // The group's best entry: the next sorted one or the renewed heap's top.
         auto pop = [&](typename Run::entry& out) {
-            const bool from_sorted =
-                next_sorted < sorted.size() &&
-                (renewed.empty() || !pops_before(renewed.front(), sorted[next_sorted]));
-            if (from_sorted) return out = sorted[next_sorted++], true;
-            if (renewed.empty()) return false;
-            std::pop_heap(renewed.begin(), renewed.end(), later);
-            out = renewed.back();
-            renewed.pop_back();
-            return true;
+            if (next_sorted < sorted.size() &&
+                (renewed.size() == 0 || !pops_before(renewed.top(), sorted[next_sorted])))
+                return out = sorted[next_sorted++], true;
+            return renewed.pop(out);
         };
         op_context<Mesh>& ctx = *me.ctx;
         ctx.worker = th;
@@ -556,12 +550,10 @@ private:
                 const std::uint64_t succeeded = me.report.succeeded;
                 ++me.report.grouped;
                 attempt<Op>(me, t, [&](const entry& fresh) {
-                    if (in_band(fresh)) {
-                        renewed.push_back(fresh);
-                        std::push_heap(renewed.begin(), renewed.end(), later);
-                    } else {
+                    if (in_band(fresh))
+                        renewed.push(fresh);
+                    else
                         home_of(fresh.tuple).q.push(fresh);
-                    }
                     ++home.report.pushed;
                 });
                 budget -= std::int64_t(me.report.succeeded - succeeded);

@@ -119,6 +119,8 @@ struct binary_heap {
             heap_.pop_back();
             return true;
         }
+        /// The entry `pop` would give; the queue must not be empty.
+        const E& top() const noexcept { return heap_.front(); }
         std::size_t size() const noexcept { return heap_.size(); }
         void clear() noexcept { heap_.clear(); }
         void reserve(std::size_t n) { heap_.reserve(n); }
