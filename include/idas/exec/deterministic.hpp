@@ -19,7 +19,8 @@
 //
 // Before the rounds, a phase whose operations add no vertex lets fixed groups of shards
 // run what stays inside them, the groups in parallel (own_shards_first); with a goal, in
-// priority bands, each shard with a budget (run_in_bands).
+// priority bands, each shard with a budget (run_in_bands), and the last bands, on a mesh
+// grown small, as one group: the serial order (serial_tail_faces).
 //
 // On one thread the rounds run the same way, so one thread and N give the same mesh.
 #pragma once
@@ -62,6 +63,16 @@ struct deterministic_rounds {
     /// unbounded rounds: with the last 1,024 collapses in those, the mean distance to the
     /// input was 6.6% above the serial run's, now 1.9% (bench/RESULTS.md, "Session 37").
     static constexpr std::int64_t min_band_goal = 1;
+    /// Once a spec with a goal has at most this many live faces (256 a shard), its bands
+    /// run as one group of the whole mesh: the serial order, on one thread. Shards this
+    /// small put a seam through every neighbourhood, and the last collapses, the
+    /// costliest, decide the distance to the input: on 24 decimations the Hausdorff
+    /// distance went from 8.3% above the serial run's to 3.4% (geometric means; the mean
+    /// distance from 2.6% to 0.2%), and meshes this small give the serial result. Twice
+    /// as many (512 a shard) moved larger meshes' figures both ways, as any change of
+    /// order does, and cost bunny's 2-thread runs 12% more (bench/RESULTS.md, "Session
+    /// 42"). Counts alone decide it, never the threads.
+    static constexpr std::int64_t serial_tail_faces = 256 * shards;
 
     template <class Run>
     static void execute(Run& run);
@@ -350,6 +361,13 @@ private:
         else
             return true;
     }
+    /// Whether a spec with a goal is down to its serial tail (serial_tail_faces).
+    bool serial_tail() const noexcept {
+        if constexpr (remaining_hook<Spec>)
+            return live_.faces <= lock::deterministic_rounds::serial_tail_faces;
+        else
+            return false;
+    }
     /// Whether a group's budget in the open band is spent.
     bool budget_spent(std::int64_t budget) const noexcept {
         if constexpr (remaining_hook<Spec>)
@@ -365,9 +383,10 @@ private:
         if constexpr (invariants_type::claims_space)
             if (spec_invariants(spec_).extra_lock_words(m_) != space_owner_.size())
                 own_space(part_.size());
-        for (unsigned level = 0; level < group_levels; ++level) {
+        const unsigned first_level = serial_tail() ? group_levels - 1 : 0;
+        for (unsigned level = first_level; level < group_levels; ++level) {
             const unsigned width = 1u << level;
-            if constexpr (ops::adds_simplices) deal_group_pools(level);
+            if constexpr (ops::adds_simplices) deal_group_pools(level, level == first_level);
             const std::size_t V = part_.size();
             parallel_chunks(pool_, K / width, 1, [&](std::size_t b, std::size_t e, unsigned th) {
                 for (std::size_t g = b; g < e; ++g)
@@ -397,9 +416,9 @@ private:
     /// would refine its side of a seam before the long edges across it, against the
     /// longest-first order, and the fans around those edges split again and again (the
     /// sphere's first tet-mesh split phase: 9,749 splits in rounds, 89,174 in groups).
-    void deal_group_pools(unsigned level) {
+    void deal_group_pools(unsigned level, bool first) {
         const unsigned groups = K >> level, width = 1u << level;
-        if (level == 0) phase_growth_ = hooks::parallel_growth(spec_, m_).second;
+        if (first) phase_growth_ = hooks::parallel_growth(spec_, m_).second;
         group_entries_.assign(groups, 0);
         std::size_t all = 0;
         for (unsigned s = 0; s < K; ++s) {
@@ -990,7 +1009,7 @@ private:
     std::vector<std::vector<index_t>> region_words_;
     std::vector<std::pair<std::uint32_t, std::uint32_t>> region_of_;
     std::vector<index_t> vertex_quota_, cell_quota_; // a pool's slots: a winner's or a group's
-    index_t phase_growth_ = 0; // the cells of the spec's parallel_growth, at level 0
+    index_t phase_growth_ = 0; // the cells of the spec's parallel_growth, at the first level
     std::vector<std::size_t> group_entries_;
     std::vector<std::int64_t> face_delta_, vertex_delta_;
     std::unique_ptr<std::atomic<std::uint64_t>[]> marks_;
