@@ -276,13 +276,23 @@ run decimate "$DATA/bunny.off" "$TMP/x.obj" --ratio 0.5 --backend linked-list
 expect_error "decimate unknown backend" 2 'backend'
 
 # --deterministic: the same file at 1 and 3 threads (3 on fewer cores), the target exact.
+# bunny.obj (69,451 faces) runs in groups of shards; blub (14,208) is under the serial tail
+# (16,384 faces) and gets the serial executor's file.
+run decimate "$DATA/bunny.obj" "$TMP/detb1.ply" --ratio 0.1 --deterministic --json
+expect_rc "decimate --deterministic bunny.obj" 0
+expect_field "decimate --deterministic bunny.obj" "d['deterministic'] and d['grouped'] > 1000" True
+expect_field "decimate --deterministic bunny.obj" "d['output_faces'] in (d['target_faces'], d['target_faces'] - 1)" True
+run decimate "$DATA/bunny.obj" "$TMP/detb3.ply" --ratio 0.1 --deterministic --threads 3
+if cmp -s "$TMP/detb1.ply" "$TMP/detb3.ply"; then ok; else fail "decimate --deterministic bunny.obj: files differ at 1 and 3 threads"; fi
 run decimate "$DATA/blub.obj" "$TMP/det1.ply" --ratio 0.1 --deterministic --json
 expect_rc "decimate --deterministic" 0
-expect_field "decimate --deterministic" "d['deterministic'] and d['rounds'] > 1" True
+expect_field "decimate --deterministic" "d['deterministic'] and d['grouped'] == 0" True
 expect_field "decimate --deterministic" "d['output_faces'] in (d['target_faces'], d['target_faces'] - 1)" True
 run decimate "$DATA/blub.obj" "$TMP/det3.ply" --ratio 0.1 --deterministic --threads 3 --json
 expect_rc "decimate --deterministic 3 threads" 0
 if cmp -s "$TMP/det1.ply" "$TMP/det3.ply"; then ok; else fail "decimate --deterministic: files differ at 1 and 3 threads"; fi
+run decimate "$DATA/blub.obj" "$TMP/det_serial.ply" --ratio 0.1 --threads 1
+if cmp -s "$TMP/det1.ply" "$TMP/det_serial.ply"; then ok; else fail "decimate --deterministic: blub differs from the serial run"; fi
 run decimate "$DATA/blub.obj" "$TMP/det3s.ply" --ratio 0.1 --algorithm shortest-edge --deterministic --threads 3
 run decimate "$DATA/blub.obj" "$TMP/det1s.ply" --ratio 0.1 --algorithm shortest-edge --deterministic
 if cmp -s "$TMP/det1s.ply" "$TMP/det3s.ply"; then ok; else fail "decimate shortest-edge --deterministic: files differ"; fi
