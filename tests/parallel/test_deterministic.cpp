@@ -131,24 +131,22 @@ TEST_CASE("deterministic rounds: a decimation below the serial tail runs in the 
             const auto input = test::load<mesh_t>(file);
             REQUIRE(std::int64_t(input.n_faces()) <= det::serial_tail_faces);
             const auto target = static_cast<std::int64_t>(double(input.n_faces()) * ratio);
-            auto serial_q = input, serial_s = input;
-            qslim_spec q;
-            q.target_faces = target;
-            qslim<mesh_t, lock::none>::run(serial_q, q);
-            shortest_edge_collapse_spec<true> e;
-            e.target_faces = target;
-            shortest_edge_collapse<true, mesh_t, lock::none>::run(serial_s, e);
+            auto decimated = [&]<class Algorithm, class Spec>(unsigned threads) {
+                auto m = input;
+                Spec spec;
+                spec.target_faces = target;
+                Algorithm::run(m, spec, {.threads = threads});
+                return m.to_arrays();
+            };
+            using sec_spec = shortest_edge_collapse_spec<true>;
+            const auto serial_q = decimated.operator()<qslim<mesh_t, lock::none>, qslim_spec>(1);
+            const auto serial_s =
+                decimated.operator()<shortest_edge_collapse<true, mesh_t, lock::none>, sec_spec>(1);
             for (const unsigned threads : {2u, 3u}) {
                 CAPTURE(threads);
-                auto rounds_q = input, rounds_s = input;
-                qslim_spec q2;
-                q2.target_faces = target;
-                qslim<mesh_t, det>::run(rounds_q, q2, {.threads = threads});
-                CHECK(rounds_q.to_arrays() == serial_q.to_arrays());
-                shortest_edge_collapse_spec<true> e2;
-                e2.target_faces = target;
-                shortest_edge_collapse<true, mesh_t, det>::run(rounds_s, e2, {.threads = threads});
-                CHECK(rounds_s.to_arrays() == serial_s.to_arrays());
+                CHECK(decimated.operator()<qslim<mesh_t, det>, qslim_spec>(threads) == serial_q);
+                CHECK(decimated.operator()<shortest_edge_collapse<true, mesh_t, det>, sec_spec>(
+                          threads) == serial_s);
             }
         }
 }

@@ -73,6 +73,11 @@ struct deterministic_rounds {
     /// order does, and cost bunny's 2-thread runs 12% more (bench/RESULTS.md, "Session
     /// 42"). Counts alone decide it, never the threads.
     static constexpr std::int64_t serial_tail_faces = 256 * shards;
+    /// Whether a run of `Spec` with this many live faces is in its serial tail.
+    template <class Spec>
+    static constexpr bool in_serial_tail(std::int64_t faces) noexcept {
+        return detail::remaining_hook<Spec> && faces <= serial_tail_faces;
+    }
 
     template <class Run>
     static void execute(Run& run);
@@ -361,13 +366,6 @@ private:
         else
             return true;
     }
-    /// Whether a spec with a goal is down to its serial tail (serial_tail_faces).
-    bool serial_tail() const noexcept {
-        if constexpr (remaining_hook<Spec>)
-            return live_.faces <= lock::deterministic_rounds::serial_tail_faces;
-        else
-            return false;
-    }
     /// Whether a group's budget in the open band is spent.
     bool budget_spent(std::int64_t budget) const noexcept {
         if constexpr (remaining_hook<Spec>)
@@ -383,7 +381,8 @@ private:
         if constexpr (invariants_type::claims_space)
             if (spec_invariants(spec_).extra_lock_words(m_) != space_owner_.size())
                 own_space(part_.size());
-        const unsigned first_level = serial_tail() ? group_levels - 1 : 0;
+        const bool serial_tail = lock::deterministic_rounds::in_serial_tail<Spec>(live_.faces);
+        const unsigned first_level = serial_tail ? group_levels - 1 : 0;
         for (unsigned level = first_level; level < group_levels; ++level) {
             const unsigned width = 1u << level;
             if constexpr (ops::adds_simplices) deal_group_pools(level, level == first_level);
@@ -1026,12 +1025,11 @@ void deterministic_rounds::execute(Run& run) {
     // A spec with a goal that starts in its serial tail runs on the serial executor: the
     // order the tail's bands would follow, equal costs included, without the shards'
     // seeding (a twentieth of such a run; bench/RESULTS.md, "Session 42").
-    if constexpr (detail::remaining_hook<typename Run::spec_type>)
-        if (Run::hooks::counts(run.mesh()).faces <= serial_tail_faces) {
-            run.serial_phase();
-            run.report().threads = std::max(1u, run.options().threads);
-            return;
-        }
+    if (in_serial_tail<typename Run::spec_type>(Run::hooks::counts(run.mesh()).faces)) {
+        run.serial_phase();
+        run.report().threads = std::max(1u, run.options().threads);
+        return;
+    }
     detail::deterministic_engine<Run> engine(run);
     engine.run();
 }
