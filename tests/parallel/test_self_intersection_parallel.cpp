@@ -20,6 +20,7 @@ template <class Algorithm, class Spec, class Mesh>
 Mesh decimated(Mesh m, double ratio, unsigned threads) {
     Spec spec;
     spec.target_faces = static_cast<std::int64_t>(double(m.n_faces()) * ratio);
+    spec.serial_up_to_faces = 0; // these meshes are small: load the workers all the same
     self_intersection_index index(m);
     spec.self_intersections = no_self_intersection(index);
     exec_options o;

@@ -71,6 +71,7 @@ TEST_CASE_TEMPLATE("parallel: a user's lock policy runs QSlim on 4 threads", Mes
     const auto before = test::topology_of(m);
     algorithms::qslim_spec spec;
     spec.target_faces = std::int64_t(m.n_faces()) / 4;
+    spec.serial_up_to_faces = 0; // bunny.off would run serially
     exec_options o;
     o.threads = 4;
     const auto r = algorithms::qslim<Mesh, whole_mesh_try_lock>::run(m, spec, o);

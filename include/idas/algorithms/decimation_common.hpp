@@ -162,13 +162,29 @@ struct face_target {
     /// half of its input was serial at any thread count.
     static constexpr std::int64_t tail_faces_per_part = 512;
     static constexpr std::int64_t tail_share_of_target_inverse = 4;
+    /// A mesh that starts with at most this many faces is decimated serially at any
+    /// thread count (the whole run is the serial tail, so the executor starts no workers).
+    /// Parts of a few thousand faces chose their collapses among a few hundred edges each,
+    /// and one run in five or ten ended 1.12-1.16x the serial run's Hausdorff distance on
+    /// bunny.off (6,966 faces) and the 12,288-face box, to save milliseconds. The
+    /// deterministic policy's serial tail (`deterministic_rounds::serial_tail_faces`) has
+    /// the same size; a larger mesh's tail was not made as large, since that did not bring
+    /// it closer to the serial result (bench/RESULTS.md, "Session 43"). 0 runs small
+    /// meshes in parallel (the tests load their workers that way).
+    static constexpr std::int64_t default_serial_up_to_faces = 16384;
+    std::int64_t serial_up_to_faces = default_serial_up_to_faces;
     void plan_serial_tail(const exec_options& o, std::int64_t faces) noexcept {
         const std::int64_t parts = std::int64_t(o.threads) * std::max(1u, o.parts_per_thread);
         const std::int64_t share =
             std::min(target_faces, std::max<std::int64_t>(0, faces - target_faces)) /
             tail_share_of_target_inverse;
         // Deterministic rounds meet the target themselves, best first, on any thread count.
-        serial_tail = o.threads > 1 && !o.deterministic ? share + tail_faces_per_part * parts : 0;
+        if (o.threads <= 1 || o.deterministic)
+            serial_tail = 0;
+        else if (faces <= serial_up_to_faces)
+            serial_tail = faces;
+        else
+            serial_tail = share + tail_faces_per_part * parts;
     }
     bool stop(const progress& p) const noexcept { return p.faces <= target_faces; }
     /// The parallel workers' goal. A collapse removes two faces (one on the boundary).

@@ -80,9 +80,11 @@ public:
 
     /// Whether this run may use several workers: a parallel lock policy, more than one
     /// thread, and a backend that deals out new slots if the operations create simplices.
-    bool parallel() const noexcept {
+    /// Not either when the spec's parallel goal is met before the start (a decimation
+    /// that starts within its serial tail): workers would only be set up and stopped.
+    bool parallel() const {
         constexpr bool can = Lock::parallel && (!ops::adds_simplices || Mesh::parallel_growth);
-        return can && options_.threads > 1;
+        return can && options_.threads > 1 && !hooks::goal_reached(spec_, hooks::counts(m_));
     }
     bool stopped() const noexcept { return stop_.load(std::memory_order_relaxed); }
 
