@@ -190,6 +190,7 @@ int run_tetmesh_optimized(const tetmesh_arguments& a, const idas::io::surface& s
                              {"swaps", opt.swaps},
                              {"smooths", opt.smooths},
                              {"sizing_refinements", opt.sizing_refinements},
+                             {"touch_ups", opt.touch_ups},
                              {"rational_vertices_left", opt.rational_left}};
         // Where the optimization's time went: each operation's passes (their serial set-up
         // and tail included) and, the rest, the work between rounds (energies, rounding,
@@ -211,6 +212,7 @@ int run_tetmesh_optimized(const tetmesh_arguments& a, const idas::io::surface& s
         }
         j["optimization"]["seconds_between_rounds"] = opt.seconds - in_phases;
         j["optimization"]["max_energy_per_round"] = opt.max_energy_history;
+        j["optimization"]["tets_above_stop_per_round"] = opt.above_stop_history;
         j["kept"] = a.options.keep_outside ? "all tets; MSH physical tag 1 = inside, 2 = outside"
                                            : "inside tets (MSH physical tag 1)";
         j["seconds"]["optimization"] = qr.seconds_optimization;
