@@ -21,11 +21,12 @@
 //      (surface, feature, rational), the sizing field's length there and the adaptive
 //      scale of it
 //   S  a collapse and a smoothing pass first (the insertion leaves many short edges),
-//      then rounds of the four; after each round, rational vertices are rounded where
-//      every tet stays positive, and where the energy stalled the target length shrinks
-//      around the bad tets and grows back elsewhere (fTetWild's adaptive sizing); stop
-//      when the largest energy is at most the stop energy, or after the iteration limit;
-//      last, one collapse pass at the full target length
+//      then rounds of the four; a round that leaves a few tets above the stop energy is
+//      touched up by collapses, swaps and smoothing; after each round, rational vertices
+//      are rounded where every tet stays positive, and where the energy stalled the
+//      target length shrinks around the bad tets and grows back elsewhere (fTetWild's
+//      adaptive sizing); stop when the largest energy is at most the stop energy, or
+//      after the iteration limit; last, one collapse pass at the full target length
 //
 // What must stay: the tracked surface (a tracked face is never swapped away, a surface
 // vertex moves or vanishes only within the envelope, and into another surface vertex
@@ -94,13 +95,14 @@ struct tet_optimization_options {
     double collapse_up_to = 0.6;
     double min_length = 0;       ///< a sizing field's smaller values are raised to this
     double min_scale = 1.0 / 32; ///< adaptive sizing never shrinks the target below this fraction
-    /// A round that leaves at most this many tets above stop_energy is followed by swaps
-    /// and smoothing alone before the energy is judged (0: never). The order the
-    /// operations run in decides whether a round leaves a flat tet or two, and a whole
-    /// round more for them cost the sphere a third of its optimization at 2 threads in 8
-    /// runs of 10; where dozens are left (37989_sf's last rounds: 14-31, held by the
-    /// sizing), swaps and smoothing alone did not clear them (bench/RESULTS.md, "Session 43").
-    std::size_t touch_up_tets = 8;
+    /// A round that leaves at most this many tets above stop_energy is followed by
+    /// collapses, swaps and smoothing (no splits) before the energy is judged (0: never).
+    /// The order the operations run in decides whether a round leaves a few flat tets,
+    /// and a whole round more for them cost the sphere a third of its optimization. Swaps
+    /// and smoothing alone cleared one or two; the 40 that the deterministic order leaves
+    /// on the sphere need the collapses too, which then also remove what the round's
+    /// collapses refused (bench/RESULTS.md, "Session 44").
+    std::size_t touch_up_tets = 64;
 };
 
 enum class tet_optimization_stop { energy_reached, iteration_limit, already_good };
@@ -963,10 +965,11 @@ using tet_optimization_prologue =
     schedule::sequence<schedule::phase<tet_collapse_spec<Envelope>>,
                        schedule::phase<tet_smooth_spec<Envelope>, queue::fifo>>;
 
-/// After a round that left a few bad tets: swaps around them, and smoothing.
+/// After a round that left a few bad tets: a round without its splits, which made them.
 template <class Envelope>
 using tet_optimization_touch_up =
-    schedule::sequence<schedule::phase<tet_swap_spec<Envelope>>,
+    schedule::sequence<schedule::phase<tet_collapse_spec<Envelope>>,
+                       schedule::phase<tet_swap_spec<Envelope>>,
                        schedule::phase<tet_smooth_spec<Envelope>, queue::fifo>>;
 
 /// After the rounds: the adaptive sizing is undone and short edges collapsed where the
@@ -1055,9 +1058,10 @@ struct tet_optimization {
                 now = energy_stats(m, exec.threads, o.stop_energy);
                 if (now.above > 0 && now.above <= o.touch_up_tets) {
                     const auto t = driver<tet_optimization_touch_up<Envelope>>::run(
-                        m, exec, 1, schedule::no_observer{}, swap, smooth);
-                    rep.phases[2] += t.phases[0], rep.phases[3] += t.phases[1];
-                    rep.swaps += t.phases[0].succeeded, rep.smooths += t.phases[1].succeeded;
+                        m, exec, 1, schedule::no_observer{}, collapse, swap, smooth);
+                    for (std::size_t k = 0; k < 3; ++k) rep.phases[k + 1] += t.phases[k];
+                    rep.collapses += t.phases[0].succeeded, rep.swaps += t.phases[1].succeeded;
+                    rep.smooths += t.phases[2].succeeded;
                     ++rep.touch_ups;
                     now = energy_stats(m, exec.threads, o.stop_energy);
                 }
