@@ -166,12 +166,13 @@ struct face_target {
     /// thread count (the whole run is the serial tail, so the executor starts no workers).
     /// Parts of a few thousand faces chose their collapses among a few hundred edges each,
     /// and one run in five or ten ended 1.12-1.16x the serial run's Hausdorff distance on
-    /// bunny.off (6,966 faces) and the 12,288-face box, to save milliseconds. The
-    /// deterministic policy's serial tail (`deterministic_rounds::serial_tail_faces`) has
-    /// the same size; a larger mesh's tail was not made as large, since that did not bring
-    /// it closer to the serial result (bench/RESULTS.md, "Session 43"). 0 runs small
-    /// meshes in parallel (the tests load their workers that way).
-    static constexpr std::int64_t default_serial_up_to_faces = 16384;
+    /// bunny.off (6,966 faces) and the 12,288-face box, to save milliseconds. The size is
+    /// the deterministic policy's serial tail (16,384); a larger mesh's tail was not made
+    /// as large, since that did not bring it closer to the serial result (bench/RESULTS.md,
+    /// "Session 43"). 0 runs small meshes in parallel (the tests load their workers that
+    /// way).
+    static constexpr std::int64_t default_serial_up_to_faces =
+        lock::deterministic_rounds::serial_tail_faces;
     std::int64_t serial_up_to_faces = default_serial_up_to_faces;
     void plan_serial_tail(const exec_options& o, std::int64_t faces) noexcept {
         const std::int64_t parts = std::int64_t(o.threads) * std::max(1u, o.parts_per_thread);
