@@ -340,17 +340,28 @@ void for_each_tet_edge_from(const Mesh& m, index_t v, Fn&& fn) {
             }
 }
 
-/// Every edge of the tets `tets` (slots), each once.
+/// Every edge of the tets `tets` (slots), each once, in the order first met. The edges
+/// met are kept in an open-addressing table of at least twice their number: a list
+/// searched from the start made this quadratic in the star, 7% of x.stl's run, whose
+/// insertion leaves vertices with hundreds of tets (bench/RESULTS.md, "Session 44").
 template <class Mesh, class Tets, class Fn>
 void for_each_edge_of(const Mesh& m, const Tets& tets, Fn&& fn) {
-    boost::container::small_vector<std::pair<index_t, index_t>, 128> seen;
+    constexpr std::uint64_t empty = ~std::uint64_t(0);
+    const std::size_t visits = 6 * std::size_t(std::ranges::distance(tets));
+    if (visits == 0) return;
+    const int bits = std::max(6, int(std::bit_width(2 * visits - 1)));
+    boost::container::small_vector<std::uint64_t, 256> seen(std::size_t(1) << bits, empty);
+    const std::uint64_t mask = (std::uint64_t(1) << bits) - 1;
     for (index_t g : tets) {
         const auto& tv = m.tet_vertices(g);
         for (std::uint8_t le = 0; le < 6; ++le) {
             const auto ev = tet_local::edge_vertices[le];
-            const std::pair<index_t, index_t> key = std::minmax(tv[ev[0]], tv[ev[1]]);
-            if (std::find(seen.begin(), seen.end(), key) != seen.end()) continue;
-            seen.push_back(key);
+            const auto [lo, hi] = std::minmax(tv[ev[0]], tv[ev[1]]);
+            const std::uint64_t key = std::uint64_t(lo) << 32 | hi;
+            std::uint64_t at = (key * 0x9e3779b97f4a7c15ull) >> (64 - bits);
+            while (seen[at] != empty && seen[at] != key) at = (at + 1) & mask;
+            if (seen[at] == key) continue;
+            seen[at] = key;
             fn(m.tuple_from_edge(g, le));
         }
     }
