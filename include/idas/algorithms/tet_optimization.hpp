@@ -341,16 +341,18 @@ void for_each_tet_edge_from(const Mesh& m, index_t v, Fn&& fn) {
 }
 
 /// Every edge of the tets `tets` (slots), each once, in the order first met. The edges
-/// met are kept in an open-addressing table of at least twice their number: a list
-/// searched from the start made this quadratic in the star, 7% of x.stl's run, whose
-/// insertion leaves vertices with hundreds of tets (bench/RESULTS.md, "Session 44").
+/// met are kept in an open-addressing table with more slots than edge visits (each edge
+/// is met in several tets, so it stays under half full), on the stack for stars of up to 85
+/// tets: a list searched from the start made this quadratic in the star, 7% of x.stl's
+/// run, whose insertion leaves vertices with hundreds of tets (bench/RESULTS.md,
+/// "Session 44").
 template <class Mesh, class Tets, class Fn>
 void for_each_edge_of(const Mesh& m, const Tets& tets, Fn&& fn) {
     constexpr std::uint64_t empty = ~std::uint64_t(0);
     const std::size_t visits = 6 * std::size_t(std::ranges::distance(tets));
     if (visits == 0) return;
-    const int bits = std::max(6, int(std::bit_width(2 * visits - 1)));
-    boost::container::small_vector<std::uint64_t, 256> seen(std::size_t(1) << bits, empty);
+    const int bits = std::max(6, int(std::bit_width(visits))); // more slots than visits
+    boost::container::small_vector<std::uint64_t, 512> seen(std::size_t(1) << bits, empty);
     const std::uint64_t mask = (std::uint64_t(1) << bits) - 1;
     for (index_t g : tets) {
         const auto& tv = m.tet_vertices(g);
@@ -1047,6 +1049,12 @@ struct tet_optimization {
         tet_smooth_spec<Envelope> smooth{{s, envelope}};
 
         tet_optimization_report rep;
+        // A phase's report into the run's, by its kind (0 split, 1 collapse, 2 swap, 3 smooth).
+        const auto count = [&rep](std::size_t kind, const run_report& r) {
+            rep.phases[kind] += r;
+            std::uint64_t* done[4] = {&rep.splits, &rep.collapses, &rep.swaps, &rep.smooths};
+            *done[kind] += r.succeeded;
+        };
         energy_summary now = energy_stats(m, exec.threads);
         bool just_refined = false;
         rep.max_energy_before = rep.max_energy = now.max;
@@ -1055,14 +1063,11 @@ struct tet_optimization {
         } else {
             const auto pro = driver<tet_optimization_prologue<Envelope>>::run(
                 m, exec, 1, schedule::no_observer{}, collapse, smooth);
-            rep.phases[1] += pro.phases[0], rep.phases[3] += pro.phases[1];
-            rep.collapses += pro.phases[0].succeeded, rep.smooths += pro.phases[1].succeeded;
+            count(1, pro.phases[0]), count(3, pro.phases[1]);
             for (unsigned it = 0; it < o.max_iterations; ++it) {
                 const auto r = driver<tet_optimization_round<Envelope>>::run(
                     m, exec, 1, schedule::no_observer{}, split, collapse, swap, smooth);
-                for (std::size_t k = 0; k < 4; ++k) rep.phases[k] += r.phases[k];
-                rep.splits += r.phases[0].succeeded, rep.collapses += r.phases[1].succeeded;
-                rep.swaps += r.phases[2].succeeded, rep.smooths += r.phases[3].succeeded;
+                for (std::size_t k = 0; k < 4; ++k) count(k, r.phases[k]);
                 rep.rounded += round_rational(m, s);
                 read_sizing(m, s, sizing, o.min_length);
                 const energy_summary before = now;
@@ -1070,9 +1075,7 @@ struct tet_optimization {
                 if (now.above > 0 && now.above <= o.touch_up_tets) {
                     const auto t = driver<tet_optimization_touch_up<Envelope>>::run(
                         m, exec, 1, schedule::no_observer{}, collapse, swap, smooth);
-                    for (std::size_t k = 0; k < 3; ++k) rep.phases[k + 1] += t.phases[k];
-                    rep.collapses += t.phases[0].succeeded, rep.swaps += t.phases[1].succeeded;
-                    rep.smooths += t.phases[2].succeeded;
+                    for (std::size_t k = 0; k < 3; ++k) count(k + 1, t.phases[k]);
                     ++rep.touch_ups;
                     now = energy_stats(m, exec.threads, o.stop_energy);
                 }
@@ -1104,7 +1107,7 @@ struct tet_optimization {
             for (index_t v = 0; v < m.vertex_slots(); ++v) sc.raw(v) = 1.0;
             const auto epi = driver<tet_optimization_epilogue<Envelope>>::run(
                 m, exec, 1, schedule::no_observer{}, collapse);
-            rep.phases[1] += epi.phases[0], rep.collapses += epi.phases[0].succeeded;
+            count(1, epi.phases[0]);
             rep.max_energy = max_energy(m, exec.threads);
         }
         for (index_t v = 0; v < m.vertex_slots(); ++v)
