@@ -189,6 +189,8 @@ TEST_CASE("the surface check says the same on one thread and on several") {
 TEST_CASE("CGAL's parallel Delaunay gives the serial result, numbered alike") {
     // Gaussian points with exact duplicates, and a grid (every cube cospherical).
     std::vector<vec3> points = io::gaussian_points(20000, 3);
+    // Enough points for the parallel insertion (fewer are triangulated on one thread).
+    static_assert(20000 >= cgal::detail::parallel_delaunay_min_points);
     for (std::size_t i = 0; i < 500; ++i) points.push_back(points[i * 7]);
     for (int i = 0; i < 12; ++i)
         for (int j = 0; j < 12; ++j)

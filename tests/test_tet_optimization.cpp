@@ -231,6 +231,83 @@ TEST_CASE("tetmesh optimization: blub on one thread reaches the stop energy") {
     CHECK(run.mesh.quality.added_for_manifold == 0);
 }
 
+TEST_CASE("tetmesh optimization: a touch-up's swaps and smoothing start near the bad tets") {
+    // A body-centred cubic lattice's Delaunay tets (all good) with one vertex pushed almost
+    // onto its neighbour: its star's tets are the bad ones. The flags are their vertices
+    // and `rings` rings of tets further out, nothing else.
+    std::vector<vec3> points;
+    for (int i = 0; i < 8; ++i)
+        for (int j = 0; j < 8; ++j)
+            for (int k = 0; k < 8; ++k) points.push_back({double(i), double(j), double(k)});
+    for (int i = 0; i < 7; ++i)
+        for (int j = 0; j < 7; ++j)
+            for (int k = 0; k < 7; ++k) points.push_back({i + 0.5, j + 0.5, k + 0.5});
+    const auto dt = cgal::delaunay_tetrahedralization(points);
+    tet_mesh<> m(dt.vertices, dt.tets);
+    using opt = algorithms::tet_optimization<envelope>;
+    constexpr double stop = 10;
+    REQUIRE(std::ranges::none_of(opt::around_bad_tets(m, stop, 0), [](auto f) { return f != 0; }));
+    const index_t moved = dt.index_of[3 * 64 + 3 * 8 + 3];
+    m.positions().raw(moved) = m.position(moved) + vec3{0.45, 0.45, 0.45};
+    std::vector<std::uint8_t> want(m.vertex_slots(), 0);
+    for (index_t g = 0; g < m.tet_slots(); ++g)
+        if (m.tet_alive(g) && !(algorithms::detail::amips(m, m.tet_vertices(g)) <= stop))
+            for (index_t v : m.tet_vertices(g)) want[v] = 1;
+    REQUIRE(want[moved] == 1);
+    std::size_t flagged_before = 0;
+    for (unsigned rings = 0; rings < 3; ++rings) {
+        CAPTURE(rings);
+        const auto got = opt::around_bad_tets(m, stop, rings);
+        CHECK(got == want);
+        const auto flagged = std::size_t(std::count(got.begin(), got.end(), 1));
+        CHECK(flagged > flagged_before);     // each ring reaches further
+        CHECK(flagged < m.n_vertices() / 2); // and the flags stay local
+        flagged_before = flagged;
+        auto next = want; // one ring more: the vertices of every tet at a flagged vertex
+        for (index_t v = 0; v < m.vertex_slots(); ++v)
+            if (want[v])
+                for (index_t g : m.vertex_tets(v))
+                    for (index_t w : m.tet_vertices(g)) next[w] = 1;
+        want = std::move(next);
+    }
+}
+
+TEST_CASE("tetmesh optimization: a collapse's entry is decided holding its edge alone") {
+    // The first stage of the two-stage claim takes the tuple's two vertices, and a stale
+    // tuple is found out under the first of them.
+    static_assert(detail::decides_holding_seeds<algorithms::tet_collapse_spec<envelope>>);
+    static_assert(!detail::decides_holding_seeds<algorithms::tet_smooth_spec<envelope>>);
+    std::vector<vec3> points;
+    for (int i = 0; i < 4; ++i)
+        for (int j = 0; j < 4; ++j)
+            for (int k = 0; k < 4; ++k)
+                points.push_back({i + 1e-3 * j * k, j + 1e-3 * i * k, k + 1e-3 * i * j});
+    const auto dt = cgal::delaunay_tetrahedralization(points);
+    tet_mesh<> m(dt.vertices, dt.tets);
+    tet_tuple t = m.tuple_from_edge(7, 2);
+    const auto [a, b] = m.edge_vertices(t);
+    std::vector<index_t> taken;
+    auto take = [&](index_t v) {
+        taken.push_back(v);
+        return true;
+    };
+    CHECK(claim_seeds<op::collapse_edge>(m, t, take) == claim_result::ok);
+    CHECK(taken == std::vector<index_t>{a, b});
+    // A tuple whose tet has changed since is stale, before b is taken.
+    taken.clear();
+    tet_tuple old = t;
+    ++old.version;
+    CHECK(claim_seeds<op::collapse_edge>(m, old, take) == claim_result::stale);
+    CHECK(taken == std::vector<index_t>{a});
+    // A busy vertex stops the claim there.
+    taken.clear();
+    auto busy_b = [&](index_t v) {
+        taken.push_back(v);
+        return v != b;
+    };
+    CHECK(claim_seeds<op::collapse_edge>(m, t, busy_b) == claim_result::busy);
+}
+
 TEST_CASE("tetmesh optimization: absurd options are input errors") {
     const auto s = io::read_surface(data_file("sphere.obj"));
     tetmesh::quality_options q;

@@ -13,6 +13,7 @@
 #include <cmath>
 #include <limits>
 #include <set>
+#include <span>
 #include <thread>
 #include <tuple>
 
@@ -69,13 +70,24 @@ void check_against_reference(unsigned seed) {
     for (int round = 0; round < 3; ++round) {
         for (int step = 0; step < 20000; ++step) {
             const unsigned r = rng() % 16;
-            if (r < 9) {
-                const E e = as<E>({random_priority(rng),
-                                   {0, index_t(rng() % 500), std::uint8_t(rng() % 3), 0},
-                                   0,
-                                   0});
+            auto random_entry = [&] {
+                return as<E>({random_priority(rng),
+                              {0, index_t(rng() % 500), std::uint8_t(rng() % 3), 0},
+                              0,
+                              0});
+            };
+            if (r < 8) {
+                const E e = random_entry();
                 q.push(e);
                 ref.insert(key_of(e));
+            } else if (r < 9) {
+                // Many at once (a worker's seeds): the heap is rebuilt, the order kept.
+                std::vector<E> batch(1 + rng() % 40);
+                for (E& e : batch) ref.insert(key_of(e = random_entry()));
+                if constexpr (requires { q.push_all(std::span<const E>(batch)); })
+                    q.push_all(std::span<const E>(batch));
+                else
+                    for (const E& e : batch) q.push(e);
             } else if (r < 15) {
                 E e{};
                 const bool got = q.pop(e);
@@ -166,7 +178,11 @@ TEST_CASE("queue policies: fifo pops in push order and sweeps keep it") {
     for (index_t i = 0; i < 10; ++i) REQUIRE((q.pop(e) && e.tuple.fid == i));
     q.erase_if([](const entry& x) { return x.tuple.fid % 2 == 0; });
     CHECK(q.size() == 45);
-    for (index_t i = 11; i < 100; i += 2) REQUIRE((q.pop(e) && e.tuple.fid == i));
+    for (index_t i = 11; i < 99; i += 2) REQUIRE((q.pop(e) && e.tuple.fid == i));
+    // Many pushed at once come after what was there, in their order.
+    const std::vector<entry> batch{{0.0, {0, 200, 0, 0}, 0, 0}, {5.0, {0, 201, 0, 0}, 0, 0}};
+    q.push_all(batch);
+    for (index_t f : {99u, 200u, 201u}) REQUIRE((q.pop(e) && e.tuple.fid == f));
     CHECK_FALSE(q.pop(e));
     // A thief takes from the far end; the owner's order stays.
     for (index_t i = 0; i < 6; ++i) q.push({0.0, {0, i, 0, 0}, 0, 0});

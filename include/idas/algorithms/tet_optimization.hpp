@@ -103,6 +103,13 @@ struct tet_optimization_options {
     /// on the sphere need the collapses too, which then also remove what the round's
     /// collapses refused (bench/RESULTS.md, "Session 44").
     std::size_t touch_up_tets = 64;
+    /// The touch-up's swaps and smoothing start on the vertices within this many rings of
+    /// the tets above stop_energy (renewals then go where they go); 0: on every vertex.
+    /// The bad tets sit in a few small clusters: smoothing every vertex again for them
+    /// cost the sphere's 2-thread run as much as its round's smoothing. Its collapses
+    /// start everywhere: started near the bad tets only, they left x.stl 5-11% more tets
+    /// (bench/RESULTS.md, "Session 45").
+    unsigned touch_up_rings = 2;
 };
 
 enum class tet_optimization_stop { energy_reached, iteration_limit, already_good };
@@ -207,6 +214,13 @@ struct tet_optimization_state {
     vec3 box_lo{}, box_hi{};                   ///< the background's bounding box
     /// Remembered containment verdicts (see containment_memo).
     containment_memo* verdicts = nullptr;
+    /// Where swaps and smoothing start: the vertices flagged here (a touch-up's), or every
+    /// vertex if empty. Read-only while phases run.
+    std::vector<std::uint8_t> focus;
+
+    bool in_focus(index_t v) const noexcept {
+        return focus.empty() || (v < focus.size() && focus[v] != 0);
+    }
 
     /// Which box planes p lies on: bit 2k for the low plane of axis k, 2k+1 for the high.
     std::uint8_t box_planes(const vec3& p) const noexcept {
@@ -596,6 +610,9 @@ template <class Envelope>
 struct tet_collapse_spec : tet_optimization_invariants<Envelope> {
     using operations = op_list<op::collapse_edge>;
     using tet_optimization_invariants<Envelope>::s;
+    /// should_process reads the stars of a and b, positions (no collapse moves a vertex)
+    /// and the attributes of a and b: in parallel it is asked holding a and b alone.
+    static constexpr bool decides_holding_seeds = true;
 
     struct cache {
         index_t b;
@@ -750,6 +767,7 @@ struct tet_swap_spec : tet_optimization_invariants<Envelope> {
     /// The tets above the bar whose smallest vertex is v.
     template <class Mesh, class Push>
     void initial_at(const Mesh& m, index_t v, Push& push) const {
+        if (!s.in_focus(v)) return;
         for (index_t g : m.vertex_tets(v)) {
             const auto& tv = m.tet_vertices(g);
             if (*std::min_element(tv.begin(), tv.end()) == v && detail::amips(m, tv) > s.swap_above)
@@ -856,7 +874,7 @@ struct tet_smooth_spec : tet_optimization_invariants<Envelope> {
     }
     template <class Mesh, class Push>
     void initial_at(const Mesh& m, index_t v, Push& push) const {
-        if (!std::ranges::empty(m.vertex_tets(v)) && movable(m, v))
+        if (s.in_focus(v) && !std::ranges::empty(m.vertex_tets(v)) && movable(m, v))
             push(op::smooth_vertex{}, m.tuple_from_vertex(v));
     }
 
@@ -1073,8 +1091,11 @@ struct tet_optimization {
                 const energy_summary before = now;
                 now = energy_stats(m, exec.threads, o.stop_energy);
                 if (now.above > 0 && now.above <= o.touch_up_tets) {
+                    if (o.touch_up_rings > 0)
+                        s.focus = around_bad_tets(m, o.stop_energy, o.touch_up_rings);
                     const auto t = driver<tet_optimization_touch_up<Envelope>>::run(
                         m, exec, 1, schedule::no_observer{}, collapse, swap, smooth);
+                    s.focus.clear();
                     for (std::size_t k = 0; k < 3; ++k) count(k + 1, t.phases[k]);
                     ++rep.touch_ups;
                     now = energy_stats(m, exec.threads, o.stop_energy);
@@ -1115,6 +1136,28 @@ struct tet_optimization {
         rep.seconds =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         return rep;
+    }
+
+    /// Flags for the vertices of the tets above `stop` and for those `rings` rings of
+    /// tets further out, by vertex slot.
+    static std::vector<std::uint8_t> around_bad_tets(const Mesh& m, double stop, unsigned rings) {
+        std::vector<std::uint8_t> in(m.vertex_slots(), 0);
+        std::vector<index_t> front;
+        for (index_t g = 0; g < m.tet_slots(); ++g) {
+            if (!m.tet_alive(g) || detail::amips(m, m.tet_vertices(g)) <= stop) continue;
+            for (index_t v : m.tet_vertices(g))
+                if (!std::exchange(in[v], 1)) front.push_back(v);
+        }
+        std::vector<index_t> next;
+        for (unsigned r = 0; r < rings; ++r) {
+            next.clear();
+            for (index_t v : front)
+                for (index_t g : m.vertex_tets(v))
+                    for (index_t w : m.tet_vertices(g))
+                        if (!std::exchange(in[w], 1)) next.push_back(w);
+            front.swap(next);
+        }
+        return in;
     }
 
     /// The largest AMIPS over the live tets (+infinity if one is flat in doubles).

@@ -85,6 +85,12 @@ inline unsigned delaunay_threads(unsigned threads) {
     return std::min(threads, static_cast<unsigned>(std::max(1, tbb::info::default_concurrency())));
 }
 
+/// Fewer points than this are triangulated on one thread: the parallel insertion's lock
+/// grid and task start cost more than they save (Gaussian points on 2 cores: 2,000 took
+/// 0.019 s on 2 threads against 0.015 s on one, 8,000 broke even, 30,000 took 0.16 against
+/// 0.20 s; bench/RESULTS.md, "Session 45").
+inline constexpr std::size_t parallel_delaunay_min_points = 10'000;
+
 /// CGAL's triangulation of the points `kept` (by index), on `threads` threads when CGAL
 /// runs on oneTBB (CGAL_LINKED_WITH_TBB: its Parallel_tag insertion, which locks a grid of
 /// cells over the bounding box). Calls `take(dt)` with the triangulation.
@@ -102,7 +108,7 @@ void triangulate(const std::vector<vec3>& points, const std::vector<index_t>& ke
         return in;
     };
 #ifdef CGAL_LINKED_WITH_TBB
-    threads = delaunay_threads(threads);
+    threads = kept.size() < parallel_delaunay_min_points ? 1 : delaunay_threads(threads);
     if (threads > 1) {
         using Cb = CGAL::Delaunay_triangulation_cell_base_3<K>;
         using Tds = CGAL::Triangulation_data_structure_3<Vb, Cb, CGAL::Parallel_tag>;

@@ -24,9 +24,11 @@ using held_vertices = boost::container::small_vector<index_t, 64>;
 /// The default region of an operation: the vertices of the simplex it acts on (the
 /// tuple's first), then every vertex of their stars. A spec's `lock_region` may call it
 /// for the meshes where its own smaller region does not hold.
-template <operation_kind Op, class Mesh, class Take>
-bool closed_star_region(const Mesh& m, const typename Mesh::tuple& t, Take&& take) {
-    index_t seeds[4] = {t.vid, t.vid, t.vid, t.vid};
+namespace detail {
+/// The vertices of the simplex Op acts on, the tuple's first; returns how many.
+template <operation_kind Op, class Mesh>
+std::size_t seed_vertices(const Mesh& m, const typename Mesh::tuple& t, index_t (&seeds)[4]) {
+    seeds[0] = seeds[1] = seeds[2] = seeds[3] = t.vid;
     std::size_t n_seeds = 1;
     if constexpr (Op::acts_on == simplex_kind::edge) {
         seeds[1] = m.edge_vertices(t).second, n_seeds = 2;
@@ -43,6 +45,14 @@ bool closed_star_region(const Mesh& m, const typename Mesh::tuple& t, Take&& tak
         for (std::size_t i = 0; i < 4; ++i) seeds[i] = tv[i];
         n_seeds = 4;
     }
+    return n_seeds;
+}
+} // namespace detail
+
+template <operation_kind Op, class Mesh, class Take>
+bool closed_star_region(const Mesh& m, const typename Mesh::tuple& t, Take&& take) {
+    index_t seeds[4];
+    const std::size_t n_seeds = detail::seed_vertices<Op>(m, t, seeds);
     for (std::size_t i = 0; i < n_seeds; ++i)
         if (!take(seeds[i])) return false;
     for (std::size_t i = 0; i < n_seeds; ++i)
@@ -99,12 +109,11 @@ bool replaced_tets_region(const Mesh& m, const typename Mesh::tuple& t, Take&& t
     }
 }
 
-/// Claims the vertices an operation reads or writes: the simplex it acts on first (so
-/// the tuple can be validated under the claim), then every vertex of their stars.
-/// Writers of a cell hold all of its vertices, so holding a vertex freezes its star. A
-/// spec's `lock_region` replaces the stars.
-template <operation_kind Op, class Spec, class Mesh, class Take>
-claim_result claim_footprint(Spec& spec, const Mesh& m, typename Mesh::tuple& t, Take& take) {
+namespace detail {
+/// The tuple's vertex, and the tuple checked under it (or re-anchored, for a vertex
+/// entry).
+template <operation_kind Op, class Mesh, class Take>
+claim_result claim_tuple(const Mesh& m, typename Mesh::tuple& t, Take& take) {
     if (t.vid >= m.vertex_slots() || !take(t.vid)) return claim_result::busy;
     // Holding the vertex freezes its star, so a vertex entry can be re-anchored in it
     // (to a cell of that star). Other tuples must name a cell of the held star before
@@ -118,6 +127,33 @@ claim_result claim_footprint(Spec& spec, const Mesh& m, typename Mesh::tuple& t,
         if (!in_star) return claim_result::stale;
     }
     if (!m.is_valid(t)) return claim_result::stale;
+    return claim_result::ok;
+}
+} // namespace detail
+
+/// The first stage of a two-stage claim: the tuple's vertex (the tuple checked under it),
+/// then the other vertices of the simplex the operation acts on. Holding them freezes
+/// their stars, which is all that a spec with `decides_holding_seeds` reads to decide
+/// whether to process an entry (see exec/run.hpp: step).
+template <operation_kind Op, class Mesh, class Take>
+claim_result claim_seeds(const Mesh& m, typename Mesh::tuple& t, Take& take) {
+    const claim_result c = detail::claim_tuple<Op>(m, t, take);
+    if (c != claim_result::ok) return c;
+    index_t seeds[4];
+    const std::size_t n_seeds = detail::seed_vertices<Op>(m, t, seeds);
+    for (std::size_t i = 1; i < n_seeds; ++i)
+        if (!take(seeds[i])) return claim_result::busy;
+    return claim_result::ok;
+}
+
+/// Claims the vertices an operation reads or writes: the simplex it acts on first (so
+/// the tuple can be validated under the claim), then every vertex of their stars.
+/// Writers of a cell hold all of its vertices, so holding a vertex freezes its star. A
+/// spec's `lock_region` replaces the stars.
+template <operation_kind Op, class Spec, class Mesh, class Take>
+claim_result claim_footprint(Spec& spec, const Mesh& m, typename Mesh::tuple& t, Take& take) {
+    const claim_result c = detail::claim_tuple<Op>(m, t, take);
+    if (c != claim_result::ok) return c;
     bool held = false;
     if constexpr (detail::lock_region_hook<Spec, Mesh, Op>)
         held = spec.lock_region(Op{}, m, t, take);

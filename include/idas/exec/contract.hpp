@@ -19,6 +19,11 @@
 //                                            and before each deterministic round
 //   parallel_growth(const Mesh&) -> index_t or std::pair<index_t, index_t>
 //   invariant_set<...> invariants() const
+//   static constexpr bool decides_holding_seeds   should_process reads only the stars of
+//                                            the operation's own vertices and what no
+//                                            operation of the phase writes: in parallel
+//                                            it is asked before the rest of the region
+//                                            is claimed
 // and for each invariant I of the set (`I::state` default-constructible):
 //   bool before(Op, const Mesh&, const tuple&, I::state&)
 //   bool after(Op, const Mesh&, const op_result<tuple>&, I::state&)
@@ -219,6 +224,12 @@ template <class S, class M>
 concept quiescent_hook = requires(S& s, M& m, const progress& p) {
     s.quiescent(m, p);
 };
+/// A spec that may be asked `should_process` holding only the operation's own vertices.
+template <class S>
+concept decides_holding_seeds = requires {
+    requires bool(S::decides_holding_seeds);
+};
+
 template <class S, class M>
 concept parallel_growth_hook = requires(S& s, const M& m) {
     { s.parallel_growth(m) } -> std::convertible_to<index_t>;

@@ -9,6 +9,7 @@
 #include <bit>
 #include <concepts>
 #include <cstdint>
+#include <span>
 #include <vector>
 
 namespace idas {
@@ -112,6 +113,12 @@ struct binary_heap {
             heap_.push_back(e);
             std::push_heap(heap_.begin(), heap_.end(), later);
         }
+        /// Many pushes at once: one linear heap build instead of a sift per entry. The
+        /// pops are the same (see pops_before).
+        void push_all(std::span<const E> es) {
+            heap_.insert(heap_.end(), es.begin(), es.end());
+            std::make_heap(heap_.begin(), heap_.end(), later);
+        }
         bool pop(E& out) {
             if (heap_.empty()) return false;
             std::pop_heap(heap_.begin(), heap_.end(), later);
@@ -158,6 +165,11 @@ struct dary_heap {
             }
             heap_[i] = e;
         }
+        /// Many pushes at once, as binary_heap's.
+        void push_all(std::span<const E> es) {
+            heap_.insert(heap_.end(), es.begin(), es.end());
+            heapify();
+        }
         IDAS_ALWAYS_INLINE bool pop(E& out) {
             if (heap_.empty()) return false;
             out = heap_.front();
@@ -172,11 +184,14 @@ struct dary_heap {
         template <class Pred>
         void erase_if(Pred&& stale) {
             std::erase_if(heap_, stale);
-            if (heap_.size() < 2) return;
-            for (std::size_t i = (heap_.size() - 2) / D + 1; i-- > 0;) sift_down(i, heap_[i]);
+            heapify();
         }
 
     private:
+        void heapify() {
+            if (heap_.size() < 2) return;
+            for (std::size_t i = (heap_.size() - 2) / D + 1; i-- > 0;) sift_down(i, heap_[i]);
+        }
         void sift_down(std::size_t i, const E e) {
             const std::size_t n = heap_.size();
             for (;;) {
@@ -205,6 +220,7 @@ struct fifo {
     class type {
     public:
         void push(const E& e) { items_.push_back(e); }
+        void push_all(std::span<const E> es) { items_.insert(items_.end(), es.begin(), es.end()); }
         bool pop(E& out) {
             if (head_ == items_.size()) {
                 items_.clear(), head_ = 0;

@@ -15,12 +15,14 @@
 
 #include <tbb/spin_mutex.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <limits>
 #include <memory>
 #include <mutex>
+#include <span>
 #include <vector>
 
 namespace idas {
@@ -211,19 +213,33 @@ public:
         step_outcome outcome = step_outcome::stale;
         ops::dispatch(e.kind, [&](auto op) {
             using Op = decltype(op);
-            const claim_result c = claimer.claim(Op{}, e.tuple);
-            if (c != claim_result::ok) {
+            auto lost = [&](claim_result c) {
                 claimer.release();
                 if (c == claim_result::stale) ++me.report.stale;
                 outcome = c == claim_result::stale ? step_outcome::stale : step_outcome::busy;
-                return;
-            }
-            if (!hooks::template should_process<Op>(spec_, m_, e)) {
+            };
+            auto skip = [&] {
                 claimer.release();
                 ++me.report.skipped;
                 outcome = step_outcome::skipped;
-                return;
+            };
+            // A spec that decides from the stars of the operation's own vertices is asked
+            // once those are held, before the rest of the region is claimed: tet meshing's
+            // collapses skip five entries for each one they attempt, and each skip cost a
+            // claim of two whole stars.
+            constexpr bool decide_early =
+                Shared && detail::decides_holding_seeds<Spec> && requires(tuple & t) {
+                claimer.claim_seeds(Op{}, t);
+            };
+            if constexpr (decide_early) {
+                const claim_result c = claimer.claim_seeds(Op{}, e.tuple);
+                if (c != claim_result::ok) return lost(c);
+                if (!hooks::template should_process<Op>(spec_, m_, e)) return skip();
             }
+            const claim_result c = claimer.claim(Op{}, e.tuple);
+            if (c != claim_result::ok) return lost(c);
+            if constexpr (!decide_early)
+                if (!hooks::template should_process<Op>(spec_, m_, e)) return skip();
             if constexpr (Shared) {
                 if (!m_.has_room(Op::adds_vertices, Op::adds_faces, me.ctx->conn.pool)) {
                     claimer.release();
@@ -256,6 +272,11 @@ public:
     template <class Op, class Take>
     claim_result claim_footprint(tuple& t, Take& take) {
         return idas::claim_footprint<Op>(spec_, m_, t, take);
+    }
+    /// The first stage of a two-stage claim: the vertices of Op's simplex.
+    template <class Op, class Take>
+    claim_result claim_seeds(tuple& t, Take& take) {
+        return idas::claim_seeds<Op>(m_, t, take);
     }
 
     /// Claims nothing: the serial phase owns the mesh. A tuple is current, or a vertex
@@ -470,7 +491,11 @@ private:
         std::vector<std::uint32_t> seeds(n, 0); // initial entries per vertex
         if constexpr (hooks::seeds_per_vertex && !detail::initial_hook<Spec, Mesh>) {
             // Found in blocks of vertices, in parallel; a block's entries are in vertex order.
-            constexpr index_t block = 4096;
+            // At least four blocks a thread, so a small mesh's seeding is shared too (a tet
+            // mesh of 8,000 vertices was two blocks of 4,096, and its collapse phase's seeding
+            // took as long on 2 threads as on one).
+            const index_t block =
+                std::clamp<index_t>(n / (4 * std::max(1u, options_.threads)), 256, 4096);
             std::vector<std::vector<entry>> found((n + block - 1) / block);
             detail::run_workers(options_.threads, unsigned(found.size()), [&](unsigned k) {
                 auto push = [&](auto op, const tuple& t) {
@@ -485,14 +510,20 @@ private:
             });
             part_ = assign_parts(seeds, P);
             each_worker([&](worker& me) {
+                std::vector<entry> mine; // then one heap build, not a sift per entry
                 for (std::size_t k = 0; k < found.size(); ++k) {
                     std::size_t i = 0;
                     for (index_t v = index_t(k * block); i < found[k].size(); ++v) {
                         if (part_[v] == me.index)
-                            for (std::uint32_t c = 0; c < seeds[v]; ++c) me.q.push(found[k][i + c]);
+                            mine.insert(mine.end(), found[k].begin() + std::ptrdiff_t(i),
+                                        found[k].begin() + std::ptrdiff_t(i + seeds[v]));
                         i += seeds[v];
                     }
                 }
+                if constexpr (requires { me.q.push_all(std::span<const entry>(mine)); })
+                    me.q.push_all(std::span<const entry>(mine));
+                else
+                    for (const entry& e : mine) me.q.push(e);
             });
             for (const auto& f : found) report_.pushed += f.size();
         } else {

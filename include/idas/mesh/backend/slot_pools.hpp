@@ -17,6 +17,7 @@
 #include <cassert>
 #include <cstddef>
 #include <cstdint>
+#include <numeric>
 #include <span>
 #include <vector>
 
@@ -81,8 +82,12 @@ private:
         // erase rather than resize: g++ 12 warns (-Wstringop-overflow) on a resize it
         // cannot see only shrinks.
         free.erase(free.end() - std::ptrdiff_t(reused), free.end());
-        for (index_t s = slots; slots_.size() < wanted; ++s) slots_.push_back(s);
+        // Dead slots lie below `slots` and the new ones count up from it: only the dead
+        // ones need sorting (a tet mesh's split phase asks for 100,000 slots and more,
+        // most of them new).
         std::sort(slots_.begin(), slots_.end());
+        slots_.resize(wanted);
+        std::iota(slots_.begin() + std::ptrdiff_t(reused), slots_.end(), slots);
         return static_cast<index_t>(
             std::max<std::size_t>(slots, slots_.empty() ? 0 : std::size_t(slots_.back()) + 1));
     }
