@@ -21,9 +21,6 @@ enum class claim_result { ok, busy, stale };
 /// The vertices a worker holds, released together.
 using held_vertices = boost::container::small_vector<index_t, 64>;
 
-/// The default region of an operation: the vertices of the simplex it acts on (the
-/// tuple's first), then every vertex of their stars. A spec's `lock_region` may call it
-/// for the meshes where its own smaller region does not hold.
 namespace detail {
 /// The vertices of the simplex Op acts on, the tuple's first; returns how many.
 template <operation_kind Op, class Mesh>
@@ -49,6 +46,9 @@ std::size_t seed_vertices(const Mesh& m, const typename Mesh::tuple& t, index_t 
 }
 } // namespace detail
 
+/// The default region of an operation: the vertices of the simplex it acts on (the
+/// tuple's first), then every vertex of their stars. A spec's `lock_region` may call it
+/// for the meshes where its own smaller region does not hold.
 template <operation_kind Op, class Mesh, class Take>
 bool closed_star_region(const Mesh& m, const typename Mesh::tuple& t, Take&& take) {
     index_t seeds[4];

@@ -118,9 +118,9 @@ public:
     /// Each worker drains its own part's queue, claiming every vertex of an operation's
     /// region with one compare-and-swap each (all or nothing). A lost race sets the entry
     /// aside: it is tried again once the queue runs dry, or (a spec with a goal) before
-    /// the next entry if that one would cost more; after `max_retry` losses (`patient_retries` if
-    /// it is the cheapest) it goes to the final serial pass. A worker whose queue is empty steals
-    /// another part's best entry.
+    /// the next entry if that one would cost more; after `max_retry` losses
+    /// (`patient_retries` if it is the cheapest) it goes to the final serial pass. A worker
+    /// whose queue is empty steals another part's best entry.
     template <class Run>
     static void claiming_phase(Run& run) {
         using entry = typename Run::entry;
