@@ -21,7 +21,7 @@ TSAN_OPTIONS="suppressions=$PWD/tests/tsan.supp ${TSAN_OPTIONS:-}" \
     timeout --signal=KILL 1200 ./build/tsan/tests/idas_parallel_tests -tc="parallel*,METIS*,harmonic*,adjacency*,vertex_try_lock*,deterministic*" \
     -tce="*envelope*,deterministic rounds: harmonic*,*stays near the serial*"
 # Every file reader under libFuzzer with ASan + UBSan (exit 1 on any finding). CI has 2 cores
-# and 40 minutes for this whole script: 10 s for each of the 12 targets is about 2 minutes
+# and 40 minutes for this whole script: 10 s for each of the 12 targets, two at a time, is a minute
 # plus under a minute to build the harnesses, enough to replay the seed and regression
 # corpus and catch a reader that breaks on simple mutations. Fuzz longer locally:
 # scripts/fuzz.sh 300.

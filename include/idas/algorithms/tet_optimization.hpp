@@ -687,17 +687,24 @@ struct tet_collapse_spec : tet_optimization_invariants<Envelope> {
         if ((kind[b] & tet_vertex::surface) && !(kind[a] & tet_vertex::surface) &&
             !s.verdicts->contains(this->envelope, p[a], p[a], p[a]))
             return false;
-        double old_max = 0, new_max = 0;
-        for (index_t g : m.vertex_tets(b)) {
-            const auto& tv = m.tet_vertices(g);
-            old_max = std::max(old_max, tet_amips(p[tv[0]], p[tv[1]], p[tv[2]], p[tv[3]]));
-        }
+        // The old star's largest energy matters only once a new tet exceeds collapse_up_to,
+        // which most accepted collapses never do.
+        double bound = s.collapse_up_to;
+        bool old_star_weighed = false;
         for (index_t g : m.vertex_tets(b)) {
             const auto& tv = m.tet_vertices(g);
             if (tet_local::contains(tv, a)) continue;
             const auto nt = idas::detail::replaced(tv, b, a);
-            new_max = std::max(new_max, tet_amips(p[nt[0]], p[nt[1]], p[nt[2]], p[nt[3]]));
-            if (!(new_max <= std::max(old_max, s.collapse_up_to))) return false;
+            const double energy = tet_amips(p[nt[0]], p[nt[1]], p[nt[2]], p[nt[3]]);
+            if (energy <= bound) continue;
+            if (!old_star_weighed) {
+                old_star_weighed = true;
+                for (index_t h : m.vertex_tets(b)) {
+                    const auto& ov = m.tet_vertices(h);
+                    bound = std::max(bound, tet_amips(p[ov[0]], p[ov[1]], p[ov[2]], p[ov[3]]));
+                }
+            }
+            if (!(energy <= bound)) return false;
         }
         return true;
     }

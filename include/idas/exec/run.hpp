@@ -510,7 +510,13 @@ private:
             });
             part_ = assign_parts(seeds, P);
             each_worker([&](worker& me) {
-                std::vector<entry> mine; // then one heap build, not a sift per entry
+                // Then one heap build, not a sift per entry; sized first, as fresh pages
+                // are a seeding's largest cost on small meshes.
+                std::size_t count = 0;
+                for (index_t v = 0; v < n; ++v) count += part_[v] == me.index ? seeds[v] : 0;
+                std::vector<entry> mine;
+                mine.reserve(count);
+                me.q.reserve(me.q.size() + count);
                 for (std::size_t k = 0; k < found.size(); ++k) {
                     std::size_t i = 0;
                     for (index_t v = index_t(k * block); i < found[k].size(); ++v) {

@@ -24,10 +24,14 @@
 #include <boost/container/small_vector.hpp>
 #include <boost/container/static_vector.hpp>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
+#include <iterator>
 #include <limits>
 #include <optional>
+#include <span>
 #include <utility>
 
 namespace idas {
@@ -139,8 +143,6 @@ bool closed_edge_ring(const Mesh& m, index_t a, index_t b, edge_ring& r,
 // virtual vertex ω (Dey et al. 1999). Both vertex links must also be 2-spheres there,
 // which refuses vertices that are non-manifold in the input.
 
-inline constexpr index_t tet_link_omega = invalid_index - 1; // the virtual vertex ω
-
 /// Number of elements two sorted, duplicate-free ranges share.
 template <class Range>
 std::size_t count_common_sorted(const Range& a, const Range& b) {
@@ -156,22 +158,35 @@ std::size_t count_common_sorted(const Range& a, const Range& b) {
     return n;
 }
 
+/// A vertex's link, closed by ω: its triangles (the faces opposite it, each sorted),
+/// its real vertices and edges (sorted, unique; an edge as `edge_key`), its open edges
+/// (in one triangle: coned to ω) and the rim (their vertices, whose edges to ω close it).
+/// ω's own elements are implied by `open`, so nothing sorts them.
 struct link_buffers {
-    std::vector<index_t> verts;
-    std::vector<std::pair<index_t, index_t>> edges;
     std::vector<tri_indices> tris;
+    std::vector<index_t> verts;
+    std::vector<std::uint64_t> edges;
+    std::vector<std::uint64_t> open;
+    std::vector<index_t> rim;
 };
+
+/// An edge (x < y) as one sortable word: one integer compare where a pair needs two.
+constexpr std::uint64_t edge_key(index_t x, index_t y) noexcept {
+    static_assert(sizeof(index_t) <= 4, "two vertex indices must fit in one 64-bit key");
+    return std::uint64_t(x) << 32 | y;
+}
 
 inline link_buffers& thread_link_buffers(int which) {
     thread_local link_buffers buffers[2];
     return buffers[which];
 }
 
-/// The link of v closed by ω, as sorted unique vertices, edges and triangles. Returns
-/// false unless it is a 2-sphere (every edge in two triangles, Euler characteristic 2).
+/// The link of v closed by ω. Returns false unless it is a 2-sphere: every edge in two
+/// triangles (an open edge's second is its cone xyω; an edge xω is in the cones of the
+/// two open edges at x) and Euler characteristic 2.
 template <class Mesh>
 bool closed_vertex_link(const Mesh& m, index_t v, link_buffers& l) {
-    l.verts.clear(), l.edges.clear(), l.tris.clear();
+    l.tris.clear(), l.verts.clear(), l.edges.clear(), l.open.clear(), l.rim.clear();
     for (index_t g : m.vertex_tets(v)) {
         tri_indices f{};
         std::size_t k = 0;
@@ -179,41 +194,55 @@ bool closed_vertex_link(const Mesh& m, index_t v, link_buffers& l) {
             if (x != v) f[k++] = x;
         std::sort(f.begin(), f.end());
         l.tris.push_back(f);
-        l.edges.push_back({f[0], f[1]}), l.edges.push_back({f[0], f[2]});
-        l.edges.push_back({f[1], f[2]});
+        l.verts.insert(l.verts.end(), f.begin(), f.end());
+        l.edges.push_back(edge_key(f[0], f[1])), l.edges.push_back(edge_key(f[0], f[2]));
+        l.edges.push_back(edge_key(f[1], f[2]));
     }
     std::sort(l.edges.begin(), l.edges.end());
-    // Link edges in one triangle bound the link: they are cones of boundary faces at v.
-    const std::size_t n = l.edges.size();
-    for (std::size_t i = 0; i < n;) {
+    std::size_t unique_edges = 0;
+    for (std::size_t i = 0, n = l.edges.size(); i < n;) {
         std::size_t j = i + 1;
         while (j < n && l.edges[j] == l.edges[i]) ++j;
         if (j - i > 2) return false;
         if (j - i == 1) {
-            const auto [x, y] = l.edges[i];
-            l.tris.push_back({x, y, tet_link_omega});
-            // The cone triangle xyω: its edges xy (now in two triangles), xω and yω.
-            l.edges.push_back({x, y});
-            l.edges.push_back({x, tet_link_omega}), l.edges.push_back({y, tet_link_omega});
+            l.open.push_back(l.edges[i]);
+            l.rim.push_back(index_t(l.edges[i] >> 32)), l.rim.push_back(index_t(l.edges[i]));
         }
-        i = j;
-    }
-    std::sort(l.edges.begin(), l.edges.end());
-    std::size_t unique_edges = 0;
-    for (std::size_t i = 0; i < l.edges.size();) {
-        std::size_t j = i + 1;
-        while (j < l.edges.size() && l.edges[j] == l.edges[i]) ++j;
-        if (j - i != 2) return false;
         l.edges[unique_edges++] = l.edges[i];
         i = j;
     }
     l.edges.resize(unique_edges);
-    for (const auto& [x, y] : l.edges) l.verts.push_back(x), l.verts.push_back(y);
+    std::sort(l.rim.begin(), l.rim.end());
+    std::size_t rim_verts = 0;
+    for (std::size_t i = 0, n = l.rim.size(); i < n; i += 2) {
+        if (i + 1 == n || l.rim[i + 1] != l.rim[i] || (i + 2 < n && l.rim[i + 2] == l.rim[i]))
+            return false;
+        l.rim[rim_verts++] = l.rim[i];
+    }
+    l.rim.resize(rim_verts);
     std::sort(l.verts.begin(), l.verts.end());
     l.verts.erase(std::unique(l.verts.begin(), l.verts.end()), l.verts.end());
-    std::sort(l.tris.begin(), l.tris.end());
-    const long chi = long(l.verts.size()) - long(l.edges.size()) + long(l.tris.size());
+    const long omega = l.open.empty() ? 0 : 1;
+    const long chi = long(l.verts.size()) + omega - long(l.edges.size() + l.rim.size()) +
+                     long(l.tris.size() + l.open.size());
     return chi == 2;
+}
+
+/// Whether the two links share a triangle with three real vertices. Such a triangle has
+/// its vertices among `common` (sorted), which few of either link's triangles do.
+inline bool share_real_triangle(const link_buffers& la, const link_buffers& lb,
+                                std::span<const index_t> common) {
+    auto in_common = [&](const tri_indices& f) {
+        return std::ranges::binary_search(common, f[0]) &&
+               std::ranges::binary_search(common, f[1]) && std::ranges::binary_search(common, f[2]);
+    };
+    boost::container::small_vector<tri_indices, 8> from_a;
+    for (const auto& f : la.tris)
+        if (in_common(f)) from_a.push_back(f);
+    if (from_a.empty()) return false;
+    for (const auto& f : lb.tris)
+        if (in_common(f) && std::ranges::find(from_a, f) != from_a.end()) return true;
+    return false;
 }
 
 } // namespace detail
@@ -247,10 +276,18 @@ bool link_condition_3d_holds(const Mesh& m, index_t a, index_t b) {
     }
     const std::size_t link_verts = ring_verts + (boundary_faces > 0 ? 1 : 0);
     const std::size_t link_edges = tets + boundary_faces;
-    // lk(ab) ⊆ lk(a) ∩ lk(b) always, so equality is a matter of counts.
-    return detail::count_common_sorted(la.verts, lb.verts) == link_verts &&
-           detail::count_common_sorted(la.edges, lb.edges) == link_edges &&
-           detail::count_common_sorted(la.tris, lb.tris) == 0;
+    // lk(ab) ⊆ lk(a) ∩ lk(b) always, so equality is a matter of counts. ω is a common
+    // vertex iff both links are open, xω a common edge iff x is on both rims, and xyω a
+    // common triangle iff xy is open in both.
+    boost::container::small_vector<index_t, 64> common;
+    std::ranges::set_intersection(la.verts, lb.verts, std::back_inserter(common));
+    const std::size_t omega = !la.open.empty() && !lb.open.empty() ? 1 : 0;
+    return common.size() + omega == link_verts &&
+           detail::count_common_sorted(la.edges, lb.edges) +
+                   detail::count_common_sorted(la.rim, lb.rim) ==
+               link_edges &&
+           detail::count_common_sorted(la.open, lb.open) == 0 &&
+           !detail::share_real_triangle(la, lb, {common.data(), common.size()});
 }
 
 namespace detail {
