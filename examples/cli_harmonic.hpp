@@ -90,8 +90,9 @@ int run_harmonic(const harmonic_arguments& a) {
     phases.lap(a.points.empty() ? "generate" : "read");
     terminal_progress bar("harmonic");
     const auto draw = [&bar](double done, const std::string& note) { bar.draw(done, note); };
+    const phase_progress progress(draw);
     const harmonic_result res =
-        harmonic_volume(points, source, a.options, phases, bar.enabled() ? &draw : nullptr);
+        harmonic_volume(points, source, a.options, phases, bar.enabled() ? &progress : nullptr);
     bar.end_line();
     const idas::io::volume& v = res.mesh;
     const auto& before = res.before;

@@ -15,7 +15,6 @@ struct remesh_arguments {
     CLI::Option* feature_angle_option = nullptr;
 };
 
-template <class Mesh>
 int run_remesh(const remesh_arguments& a) {
     phase_times phases;
     idas::io::format_of(a.out); // an unknown output extension fails before any work
@@ -26,8 +25,9 @@ int run_remesh(const remesh_arguments& a) {
     phases.lap("read");
     terminal_progress bar("remesh");
     const auto draw = [&bar](double done, const std::string& note) { bar.draw(done, note); };
+    const phase_progress progress(draw);
     const remeshed res =
-        remesh_surface<Mesh>(s, a.in, a.options, phases, bar.enabled() ? &draw : nullptr);
+        remesh_surface(s, a.in, a.options, phases, bar.enabled() ? &progress : nullptr);
     bar.end_line();
     const auto& r = res.report;
     const idas::io::surface& result = res.mesh;

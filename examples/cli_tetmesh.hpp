@@ -146,13 +146,14 @@ int run_tetmesh_optimized(const tetmesh_arguments& a, const idas::io::surface& s
     const unsigned max_iterations = a.options.max_iterations;
     std::optional<terminal_progress> bar;
     if (!a.as_json) bar.emplace("tetmesh");
-    const tetmeshed res =
-        tetmesh_volume(s, a.in, a.options, setup, [&](unsigned round, double max_energy) {
-            if (bar)
-                bar->draw(double(round + 1) / std::max(1u, max_iterations),
-                          "round " + std::to_string(round + 1) + ", max AMIPS " +
-                              std::to_string(max_energy));
-        });
+    const auto draw = [&](unsigned round, double max_energy) {
+        if (bar)
+            bar->draw(double(round + 1) / std::max(1u, max_iterations),
+                      "round " + std::to_string(round + 1) + ", max AMIPS " +
+                          std::to_string(max_energy));
+    };
+    const round_observer observer(draw);
+    const tetmeshed res = tetmesh_volume(s, a.in, a.options, setup, &observer);
     if (bar) bar->end_line();
     const auto& r = res.insertion;
     const auto& qr = res.quality;

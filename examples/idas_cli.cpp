@@ -420,7 +420,6 @@ int run_demo(const std::string& in, const std::string& out, bool as_json, std::u
 
 #include "cli_progress.hpp"
 
-template <class Mesh>
 int run_decimate(const std::string& in, const std::string& out, const decimate_options& o,
                  bool as_json, bool ascii, bool drop_attributes) {
     phase_times phases;
@@ -437,7 +436,8 @@ int run_decimate(const std::string& in, const std::string& out, const decimate_o
     const auto draw = [&bar](double done, std::int64_t faces) {
         bar.draw(done, std::to_string(faces) + " faces");
     };
-    const decimated d = decimate_surface<Mesh>(s, in, o, phases, bar.enabled() ? &draw : nullptr);
+    const face_progress progress(draw);
+    const decimated d = decimate_surface(s, in, o, phases, bar.enabled() ? &progress : nullptr);
     bar.end_line();
     const idas::io::surface& result = d.mesh;
     const idas::run_report& r = d.report;
@@ -685,16 +685,11 @@ int run(int argc, char** argv) {
     if (info->parsed())
         return is_tet_path(in) ? run_tet_info(in, as_json)
                                : run_info(in, as_json, self_intersections);
-    if (remesh->parsed())
-        return with_backend(ra.options.backend, [&]<class Mesh>(std::type_identity<Mesh>) {
-            return run_remesh<Mesh>(ra);
-        });
+    if (remesh->parsed()) return run_remesh(ra);
     if (harmonic->parsed()) return run_harmonic(ha);
     if (tetmesh->parsed()) return run_tetmesh(ta);
     if (decimate->parsed())
-        return with_backend(dec.backend, [&]<class Mesh>(std::type_identity<Mesh>) {
-            return run_decimate<Mesh>(in, out, dec, as_json, ascii, decimate_drop_attributes);
-        });
+        return run_decimate(in, out, dec, as_json, ascii, decimate_drop_attributes);
     if (convert->parsed() && is_tet_convert(in, out))
         return run_tet_convert(in, out, ascii, tet_convert);
     if (convert->parsed()) return run_convert(in, out, ascii, drop_attributes);

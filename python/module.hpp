@@ -1,5 +1,5 @@
 // What the module's translation units share: their binding functions, the exception that
-// bad input raises, and the quiet progress of runs that nobody watches.
+// bad input raises, and how a run goes without the GIL.
 #pragma once
 
 #include "convert.hpp"
@@ -16,13 +16,6 @@ namespace idas::python {
 void bind_io(py::module_& m);
 void bind_surface_algorithms(py::module_& m);
 void bind_tet_algorithms(py::module_& m);
-
-/// Progress of a run from Python: not drawn (the GIL is released while it runs).
-struct no_progress {
-    void operator()(double, std::int64_t) const noexcept {}
-    void operator()(double, const std::string&) const noexcept {}
-};
-inline constexpr const no_progress* quietly = nullptr;
 
 /// Runs run(phases) without the GIL, with oneTBB on at most `threads` threads (as the tool
 /// runs its reading, checks and writing), and returns what it returns.

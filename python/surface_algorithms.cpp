@@ -13,19 +13,15 @@
 namespace idas::python {
 namespace {
 
-/// The arrays as a surface the tool would take, then edit(std::type_identity<Mesh>,
-/// surface, phases) without the GIL on the mesh type of `backend`; returns its result.
+/// The arrays as a surface the tool would take, then edit(surface, phases) without the GIL
+/// (the tool library's run, on the backend its options name); returns its result.
 template <class Edit>
 py::tuple edit_surface(const py::object& vertices, const py::object& faces,
-                       const py::object& attributes, unsigned threads, const std::string& backend,
-                       Edit&& edit) {
+                       const py::object& attributes, unsigned threads, Edit&& edit) {
     const io::surface s = surface_from(vertices, faces, attributes);
     check_input_surface(s);
-    const io::surface result = without_gil(threads, [&](tool::phase_times& phases) {
-        return tool::with_backend(backend, [&]<class Mesh>(std::type_identity<Mesh> mesh) {
-            return edit(mesh, s, phases);
-        });
-    });
+    const io::surface result =
+        without_gil(threads, [&](tool::phase_times& phases) { return edit(s, phases); });
     return surface_to(result);
 }
 
@@ -43,11 +39,10 @@ py::tuple decimate(const py::object& vertices, const py::object& faces,
     o.feature_angle = feature_angle, o.allow_self_intersections = allow_self_intersections;
     o.backend = backend, o.attribute_weight = attribute_weight;
     tool::check_decimate_options(o);
-    return edit_surface(
-        vertices, faces, attributes, threads, backend,
-        [&]<class Mesh>(std::type_identity<Mesh>, const io::surface& s, tool::phase_times& phases) {
-            return tool::decimate_surface<Mesh>(s, "mesh", o, phases, quietly).mesh;
-        });
+    return edit_surface(vertices, faces, attributes, threads,
+                        [&](const io::surface& s, tool::phase_times& phases) {
+                            return tool::decimate_surface(s, "mesh", o, phases, nullptr).mesh;
+                        });
 }
 
 py::tuple remesh(const py::object& vertices, const py::object& faces, const py::object& attributes,
@@ -63,11 +58,10 @@ py::tuple remesh(const py::object& vertices, const py::object& faces, const py::
     o.allow_self_intersections = allow_self_intersections, o.backend = backend;
     o.max_faces = max_faces;
     tool::check_remesh_options(o);
-    return edit_surface(
-        vertices, faces, attributes, threads, backend,
-        [&]<class Mesh>(std::type_identity<Mesh>, const io::surface& s, tool::phase_times& phases) {
-            return tool::remesh_surface<Mesh>(s, "mesh", o, phases, quietly).mesh;
-        });
+    return edit_surface(vertices, faces, attributes, threads,
+                        [&](const io::surface& s, tool::phase_times& phases) {
+                            return tool::remesh_surface(s, "mesh", o, phases, nullptr).mesh;
+                        });
 }
 
 } // namespace

@@ -27,7 +27,7 @@ py::tuple harmonic(const py::object& points, const std::string& mode, unsigned t
     if (p.size() < 4) refuse("points: a tet mesh needs at least 4 points");
 #if IDAS_CLI_HAVE_CGAL
     const tool::harmonic_result r = without_gil(threads, [&](tool::phase_times& phases) {
-        return tool::harmonic_volume(p, "points", o, phases, quietly);
+        return tool::harmonic_volume(p, "points", o, phases, nullptr);
     });
     return volume_to(r.mesh);
 #else
@@ -58,7 +58,7 @@ py::tuple tetmesh(const py::object& vertices, const py::object& faces, double ep
 #if IDAS_CLI_HAVE_CGAL
     const tool::tetmeshed r = without_gil(threads, [&](tool::phase_times&) {
         const tool::tetmesh_setup setup = tool::prepare_tetmesh(o, s, constant_sizing);
-        return tool::tetmesh_volume(s, "mesh", o, setup, [](unsigned, double) {});
+        return tool::tetmesh_volume(s, "mesh", o, setup, nullptr);
     });
     return volume_to(r.mesh);
 #else

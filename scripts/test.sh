@@ -3,7 +3,7 @@
 # the file readers briefly.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bash scripts/install-deps.sh
+bash scripts/install-deps.sh --tests
 cmake --preset release
 cmake --build --preset release
 ctest --preset release -j"$(nproc)"

@@ -17,8 +17,11 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <concepts>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -104,6 +107,34 @@ private:
     double last_ = 0;
     std::vector<std::pair<std::string, double>> phases_;
 };
+
+// ---- progress -------------------------------------------------------------------------------
+
+/// A front end's progress callback: a function pointer and the front end's object. The
+/// commands' runs (decimate.cpp, remesh.cpp, harmonic.cpp, tetmesh.cpp) are compiled once,
+/// in the library idas_tool, for the tool and the Python module, so they take this rather
+/// than the callable's own type. It is called after a phase or every 256th operation,
+/// never on an operation's path.
+template <class... Args>
+class callback {
+public:
+    callback() = default;
+    template <class F>
+    requires std::invocable<F&, Args...>
+    explicit callback(F& f) noexcept
+        : call_([](void* object, Args... args) { (*static_cast<F*>(object))(args...); })
+        , object_(const_cast<void*>(static_cast<const void*>(std::addressof(f)))) {}
+    explicit operator bool() const noexcept { return call_ != nullptr; }
+    void operator()(Args... args) const { call_(object_, args...); }
+
+private:
+    void (*call_)(void*, Args...) = nullptr;
+    void* object_ = nullptr;
+};
+/// Decimation: (fraction done, faces left).
+using face_progress = callback<double, std::int64_t>;
+/// Remeshing and harmonic triangulation: (fraction done, a note on the phase).
+using phase_progress = callback<double, const std::string&>;
 
 // ---- input and output ----------------------------------------------------------------------
 
