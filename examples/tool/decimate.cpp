@@ -20,10 +20,10 @@ namespace {
 /// success (serial) or every few (parallel workers), and every 256th calls
 /// progress(fraction done, faces left). The wrapped type is the executor's spec
 /// (Algorithm::with_spec), so this `stop` is the one called.
-template <class Base, class Progress>
+template <class Base>
 struct with_progress : Base {
     std::int64_t start_faces = 0;
-    const Progress* progress = nullptr;
+    const face_progress* progress = nullptr;
 
     bool stop(const idas::progress& p) {
         if (progress && (p.successes & 255) == 0)
@@ -34,11 +34,11 @@ struct with_progress : Base {
     }
 };
 
-template <class Algorithm, class Spec, class Mesh, class Progress>
+template <class Algorithm, class Spec, class Mesh>
 idas::run_report decimate_with(Mesh& m, std::int64_t target, const decimate_options& o,
                                const idas::algorithms::attribute_transfer* transfer,
-                               idas::no_self_intersection guard, const Progress* progress) {
-    with_progress<Spec, Progress> spec;
+                               idas::no_self_intersection guard, const face_progress* progress) {
+    with_progress<Spec> spec;
     spec.target_faces = target;
     if constexpr (requires { spec.attribute_weight; })
         spec.attribute_weight = o.attribute_weight.value_or(spec.attribute_weight);
@@ -48,14 +48,15 @@ idas::run_report decimate_with(Mesh& m, std::int64_t target, const decimate_opti
     spec.progress = progress;
     idas::exec_options options;
     options.threads = o.threads;
-    return Algorithm::template with_spec<with_progress<Spec, Progress>>::run(m, spec, options);
+    return Algorithm::template with_spec<with_progress<Spec>>::run(m, spec, options);
 }
 
 /// Decimates `s` (read from `source`, which error messages name) on the mesh type Mesh;
 /// `progress` may be null. Laps "build" ... "check" on `phases`.
-template <class Mesh, class Progress>
+template <class Mesh>
 decimated decimate_on(const idas::io::surface& s, const std::string& source,
-                      const decimate_options& o, phase_times& phases, const Progress* progress) {
+                      const decimate_options& o, phase_times& phases,
+                      const face_progress* progress) {
     using namespace idas::algorithms;
     std::optional<Mesh> built;
     Mesh& m = build_mesh(built, s, source);

@@ -46,10 +46,10 @@ phase_quality quality_of(const Mesh& m) {
 
 /// Runs the remeshing; `progress` (may be null) hears (fraction done, note) after every phase,
 /// and `trace` (may be null) gets the mesh's quality after every phase.
-template <class Lock, class Mesh, class Progress, class... Extra>
+template <class Lock, class Mesh, class... Extra>
 idas::algorithms::remeshing_report
 remesh_with(Mesh& m, const idas::algorithms::remeshing_options& o, unsigned threads,
-            const Progress* progress, std::vector<phase_quality>* trace, Extra... extra) {
+            const phase_progress* progress, std::vector<phase_quality>* trace, Extra... extra) {
     idas::exec_options exec;
     exec.threads = threads;
     auto observer = [&](std::size_t phase, unsigned iteration, const idas::run_report&) {
@@ -71,9 +71,9 @@ remesh_with(Mesh& m, const idas::algorithms::remeshing_options& o, unsigned thre
 
 /// Remeshes `s` (read from `source`, which error messages name) on the mesh type Mesh;
 /// `progress` may be null. Laps "input_statistics" ... "check" on `phases`.
-template <class Mesh, class Progress>
+template <class Mesh>
 remeshed remesh_on(const idas::io::surface& s, const std::string& source, const remesh_options& a,
-                   phase_times& phases, const Progress* progress) {
+                   phase_times& phases, const phase_progress* progress) {
     remeshed out;
     out.input_stats = compute_stats(s);
     phases.lap("input_statistics");

@@ -8,13 +8,10 @@
 
 #include <idas/algorithms/isotropic_remeshing.hpp> // remeshing_report
 
-#include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
-#include <limits>
-#include <numbers>
 #include <optional>
-#include <ranges>
 #include <string>
 #include <vector>
 
