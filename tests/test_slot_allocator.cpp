@@ -4,6 +4,7 @@
 
 #include <doctest/doctest.h>
 
+#include <array>
 #include <span>
 #include <vector>
 
@@ -118,4 +119,27 @@ TEST_CASE("slot allocator: quota pools, one per operation, dealt in order") {
     CHECK(a.acquire(13, 2).slot == 10);
     a.end_parallel();
     CHECK(free_list(a) == std::vector<index_t>{11, 12}); // the unused, as dead slots
+}
+
+TEST_CASE("grow_prefaulted: old values kept, new ones made, past a megabyte and below") {
+    // Past a megabyte the fresh pages are touched by several threads before the elements
+    // are made; below it, a plain resize. Either way: a resize's result.
+    for (const std::size_t n : {std::size_t{3000}, std::size_t{300000}}) {
+        std::vector<std::array<index_t, 4>> v(1000);
+        for (std::size_t i = 0; i < v.size(); ++i) v[i] = {index_t(i), 1, 2, 3};
+        idas::detail::grow_prefaulted(v, n, {7, 7, 7, 7});
+        REQUIRE(v.size() == n);
+        for (std::size_t i = 0; i < 1000; ++i)
+            REQUIRE(v[i] == std::array<index_t, 4>{index_t(i), 1, 2, 3});
+        for (std::size_t i = 1000; i < n; ++i) REQUIRE(v[i] == std::array<index_t, 4>{7, 7, 7, 7});
+        idas::detail::grow_prefaulted(v, 10, {0, 0, 0, 0}); // never shrinks
+        CHECK(v.size() == n);
+    }
+    // Elements that own memory: the old ones are moved, the new ones copies of the value.
+    std::vector<std::vector<index_t>> lists(100, std::vector<index_t>{1, 2});
+    idas::detail::grow_prefaulted(lists, 100000, std::vector<index_t>{9});
+    REQUIRE(lists.size() == 100000);
+    CHECK(lists[99] == std::vector<index_t>{1, 2});
+    CHECK(lists[100] == std::vector<index_t>{9});
+    CHECK(lists.back() == std::vector<index_t>{9});
 }

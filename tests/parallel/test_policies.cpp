@@ -12,6 +12,7 @@
 #include <atomic>
 #include <cmath>
 #include <limits>
+#include <ranges>
 #include <set>
 #include <span>
 #include <thread>
@@ -82,12 +83,21 @@ void check_against_reference(unsigned seed) {
                 ref.insert(key_of(e));
             } else if (r < 9) {
                 // Many at once (a worker's seeds): the heap is rebuilt, the order kept.
+                // Also as the executor's seeding gives them: runs of several blocks,
+                // joined (a range with no size and no common end).
                 std::vector<E> batch(1 + rng() % 40);
                 for (E& e : batch) ref.insert(key_of(e = random_entry()));
-                if constexpr (requires { q.push_all(std::span<const E>(batch)); })
-                    q.push_all(std::span<const E>(batch));
-                else
+                const std::size_t cut = rng() % (batch.size() + 1);
+                const std::vector<std::span<const E>> runs{std::span<const E>(batch).first(cut),
+                                                           std::span<const E>(batch).subspan(cut)};
+                if constexpr (requires { q.push_all(std::span<const E>(batch)); }) {
+                    if (rng() % 2)
+                        q.push_all(std::span<const E>(batch));
+                    else
+                        q.push_all(runs | std::views::join);
+                } else {
                     for (const E& e : batch) q.push(e);
+                }
             } else if (r < 15) {
                 E e{};
                 const bool got = q.pop(e);

@@ -9,6 +9,7 @@
 #include <bit>
 #include <concepts>
 #include <cstdint>
+#include <ranges>
 #include <span>
 #include <vector>
 
@@ -79,6 +80,24 @@ IDAS_ALWAYS_INLINE constexpr bool pops_before(const E& a, const E& b) noexcept {
     return tie_pops_before(a, b);
 }
 
+/// A range whose elements are queue entries of type E: what `push_all` takes (a span, or
+/// the executor's seeds joined from the blocks they were found in, without a copy).
+template <class R, class E>
+concept entries_of = std::ranges::input_range<R> && requires(std::ranges::range_reference_t<R> e) {
+    { e } -> std::convertible_to<const E&>;
+};
+
+namespace detail {
+/// Appends a range of entries to a queue's storage, in one copy where the range allows.
+template <class E, class R>
+void append(std::vector<E>& to, R& es) {
+    if constexpr (std::ranges::common_range<R> && std::ranges::forward_range<R>)
+        to.insert(to.end(), std::ranges::begin(es), std::ranges::end(es));
+    else
+        for (const E& e : es) to.push_back(e);
+}
+} // namespace detail
+
 template <class Q, class E>
 concept queue_for = std::default_initializable<Q> && requires(Q q, const E& e, E& out) {
     {q.push(e)};
@@ -115,8 +134,9 @@ struct binary_heap {
         }
         /// Many pushes at once: one linear heap build instead of a sift per entry. The
         /// pops are the same (see pops_before).
-        void push_all(std::span<const E> es) {
-            heap_.insert(heap_.end(), es.begin(), es.end());
+        template <entries_of<E> R>
+        void push_all(R&& es) {
+            idas::detail::append(heap_, es);
             std::make_heap(heap_.begin(), heap_.end(), later);
         }
         bool pop(E& out) {
@@ -166,8 +186,9 @@ struct dary_heap {
             heap_[i] = e;
         }
         /// Many pushes at once, as binary_heap's.
-        void push_all(std::span<const E> es) {
-            heap_.insert(heap_.end(), es.begin(), es.end());
+        template <entries_of<E> R>
+        void push_all(R&& es) {
+            idas::detail::append(heap_, es);
             heapify();
         }
         IDAS_ALWAYS_INLINE bool pop(E& out) {
@@ -220,7 +241,10 @@ struct fifo {
     class type {
     public:
         void push(const E& e) { items_.push_back(e); }
-        void push_all(std::span<const E> es) { items_.insert(items_.end(), es.begin(), es.end()); }
+        template <entries_of<E> R>
+        void push_all(R&& es) {
+            idas::detail::append(items_, es);
+        }
         bool pop(E& out) {
             if (head_ == items_.size()) {
                 items_.clear(), head_ = 0;

@@ -453,9 +453,9 @@ public:
 private:
     /// The arrays grow to the slot counts the pools were dealt from.
     void grow_to(index_t nv, index_t nt) {
-        anchor_.resize(nv, invalid_index);
+        detail::grow_prefaulted(anchor_, nv, invalid_index);
         valive_.resize(nv, 0);
-        tets_.resize(nt, dead_tet());
+        detail::grow_prefaulted(tets_, nt, dead_tet());
     }
 
     static constexpr tet_indices dead_links() noexcept {

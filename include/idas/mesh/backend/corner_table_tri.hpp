@@ -541,9 +541,9 @@ public:
 private:
     /// The arrays grow to the slot counts the pools were dealt from.
     void grow_to(index_t nv, index_t nf) {
-        anchor_.resize(nv, invalid_index);
+        detail::grow_prefaulted(anchor_, nv, invalid_index);
         valive_.resize(nv, 0);
-        faces_.resize(nf, dead_face());
+        detail::grow_prefaulted(faces_, nf, dead_face());
     }
 
     static constexpr face_record dead_face() noexcept {

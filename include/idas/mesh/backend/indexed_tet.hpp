@@ -230,10 +230,11 @@ public:
 private:
     /// The arrays grow to the slot counts the pools were dealt from.
     void grow_to(index_t nv, index_t nt) {
-        vt_.resize(nv);
+        detail::grow_prefaulted(vt_, nv, {});
         valive_.resize(nv, 0);
-        tv_.resize(nt, {invalid_index, invalid_index, invalid_index, invalid_index});
-        version_.resize(nt, 0);
+        detail::grow_prefaulted(tv_, nt,
+                                {invalid_index, invalid_index, invalid_index, invalid_index});
+        detail::grow_prefaulted(version_, nt, version_t{0});
     }
 
     static bool contains(const tet_indices& t, index_t v) noexcept {

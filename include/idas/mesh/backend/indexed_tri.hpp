@@ -227,10 +227,10 @@ public:
 private:
     /// The arrays grow to the slot counts the pools were dealt from.
     void grow_to(index_t nv, index_t nf) {
-        vf_.resize(nv);
+        detail::grow_prefaulted(vf_, nv, {});
         valive_.resize(nv, 0);
-        fv_.resize(nf, {invalid_index, invalid_index, invalid_index});
-        version_.resize(nf, 0);
+        detail::grow_prefaulted(fv_, nf, {invalid_index, invalid_index, invalid_index});
+        detail::grow_prefaulted(version_, nf, version_t{0});
     }
 
     static bool contains(const tri_indices& f, index_t v) noexcept {
