@@ -407,6 +407,28 @@ const concurrency_case& concurrency_data() {
 
 } // namespace
 
+TEST_CASE("envelope: CGAL's structure is built on the first question the filter leaves open") {
+    // The soup simplification asks the filter alone: its envelope never needs CGAL's.
+    const soup s = load_soup("bunny.off");
+    const auto env = envelope::relative(s.V, s.F, 1e-3);
+    const envelope copy = env;
+    for (std::size_t f = 0; f < s.F.size(); f += 7) {
+        const triangle t = face_triangle(s, f);
+        REQUIRE(env.fast_verdict(t[0], t[1], t[2]) == envelope::verdict::inside);
+    }
+    CHECK_FALSE(env.exact_built());
+    // Far outside: the filter proves it without CGAL too.
+    const triangle far = moved(face_triangle(s, 0), 100 * env.eps());
+    CHECK_FALSE(env.contains(far[0], far[1], far[2]));
+    CHECK_FALSE(env.exact_built());
+    // An exact question builds it, once, for every copy.
+    const triangle t = face_triangle(s, 3);
+    CHECK(copy.contains_exact(t[0], t[1], t[2]));
+    CHECK(env.exact_built());
+    CHECK(env.cgal() == copy.cgal());
+    CHECK_FALSE(env.contains_exact(far[0], far[1], far[2]));
+}
+
 TEST_CASE("envelope: concurrent checks on one envelope agree with a serial pass") {
     const auto& [s, rel, Q, serial] = concurrency_data();
     std::size_t inside = 0;
@@ -415,7 +437,8 @@ TEST_CASE("envelope: concurrent checks on one envelope agree with a serial pass"
     CHECK(inside < Q.size() * 3 / 4 + Q.size() / 8);
 
     // Each parallel pass uses a fresh envelope, so it starts with no exact value computed
-    // yet. contains_exact runs CGAL on every triangle; contains the filter first.
+    // yet, and CGAL's structure is built by whichever thread asks first while the others
+    // wait for it. contains_exact runs CGAL on every triangle; contains the filter first.
     auto run_parallel = [&](bool same_set) {
         const auto env = envelope::relative(s.V, s.F, rel);
         const envelope copy = env; // copies share the CGAL structure

@@ -27,7 +27,9 @@
 // * outside: every prism point is within eps of its triangle and within eps/sqrt(3) of
 //   its plane, so a corner or piece centroid farther than eps from the input, or outside
 //   the slabs of all the input triangles within eps, is outside the envelope.
-// Whatever the filter cannot decide goes to CGAL. `contains_exact` skips the filter.
+// Whatever the filter cannot decide goes to CGAL, whose structure is built on the first
+// such question (a user of the filter alone never builds it). `contains_exact` skips the
+// filter.
 // The filter keeps the input triangles it found near recent queries (a per-thread cache
 // in the invariant hook, kept across operations), rejects most of them for a point with
 // a bounding-sphere test before the exact point-triangle distance, tries the one that
@@ -42,7 +44,8 @@
 // Needs CGAL (5.4 or later; header-only, with GMP and MPFR): link CGAL::CGAL. Not part of
 // the idas/idas.hpp umbrella.
 //
-// Thread safety: an envelope is immutable once built, and CGAL's const queries on it are
+// Thread safety: an envelope is immutable once built (CGAL's structure is made once, under
+// std::call_once, by the first thread that needs it), and CGAL's const queries on it are
 // safe to run concurrently (see the note at the end of this file), so one envelope object,
 // and its copies (which share the CGAL structure), may be used by any number of threads.
 //
@@ -79,6 +82,8 @@
 #include <cstdint>
 #include <limits>
 #include <memory>
+#include <mutex>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -164,7 +169,7 @@ public:
             }
             triangles.push_back({int(F[f][0]), int(F[f][1]), int(F[f][2])});
         }
-        auto d = std::make_shared<data>(points, triangles, eps);
+        auto d = std::make_shared<data>(std::move(points), triangles, eps);
         d->faces = triangles.size(), d->skipped = skipped;
         build_filter(*d, V, triangles);
         data_ = std::move(d);
@@ -185,7 +190,11 @@ public:
     std::size_t n_prisms() const noexcept { return data_ ? data_->faces : 0; }
     std::size_t n_skipped_degenerate() const noexcept { return data_ ? data_->skipped : 0; }
     /// The underlying CGAL object (null when disabled).
-    const cgal_envelope* cgal() const noexcept { return data_ ? &data_->env : nullptr; }
+    /// Whether CGAL's structure has been built (by a question the filter left open, by
+    /// `contains_exact` or by `cgal()`). For tests and measurements.
+    bool exact_built() const noexcept { return data_ && data_->built(); }
+    /// Built on the first call (see `data::exact`).
+    const cgal_envelope* cgal() const { return data_ ? &data_->exact() : nullptr; }
 
     /// Exact: is triangle (a, b, c) inside the envelope? Collinear triangles are tested
     /// as segments, coincident corners as points. True when disabled.
@@ -196,12 +205,12 @@ public:
     /// The same answer from CGAL alone (no filter): for tests and measurements.
     bool contains_exact(const vec3& a, const vec3& b, const vec3& c) const {
         if (!data_) return true;
-        return data_->env(point(a), point(b), point(c));
+        return data_->exact()(point(a), point(b), point(c));
     }
     /// Exact: is point p inside the envelope? True when disabled.
     bool contains(const vec3& p) const {
         if (!data_) return true;
-        return data_->env(point(p));
+        return data_->exact()(point(p));
     }
 
     enum class verdict : std::uint8_t { outside, inside, unknown };
@@ -402,7 +411,7 @@ public:
         if (v == verdict::outside) IDAS_DETAIL_ENV_COUNT(filter_outside);
         if (v != verdict::unknown) return v == verdict::inside;
         IDAS_DETAIL_ENV_COUNT(exact);
-        const bool in = data_->env(point(a), point(b), point(c));
+        const bool in = data_->exact()(point(a), point(b), point(c));
         if (in) IDAS_DETAIL_ENV_COUNT(exact_inside);
         return in;
     }
@@ -624,11 +633,25 @@ private:
     }
 
     struct data {
-        data(const std::vector<kernel::Point_3>& points,
-             const std::vector<std::array<int, 3>>& triangles, double e)
-            : env(points, triangles, e)
-            , eps(e) {}
-        cgal_envelope env;
+        data(std::vector<kernel::Point_3> points, std::vector<std::array<int, 3>> triangles,
+             double e)
+            : eps(e)
+            , points_(std::move(points))
+            , triangles_(std::move(triangles)) {}
+        /// CGAL's envelope, made on the first question the filter leaves open: a user of
+        /// the filter alone (the soup simplification asks only `fast_verdict`) never pays
+        /// for it, and its construction was the tet mesher's first envelope's 10 of 11 ms
+        /// on a 760-triangle sphere (bench/RESULTS.md, "session 48"). Thread-safe: a
+        /// worker that asks while another builds it waits for that one.
+        const cgal_envelope& exact() const {
+            std::call_once(once_, [this] {
+                env_.emplace(points_, triangles_, eps);
+                points_ = {}, triangles_ = {};
+                built_.store(true, std::memory_order_release);
+            });
+            return *env_;
+        }
+        bool built() const noexcept { return built_.load(std::memory_order_acquire); }
         double eps;
         std::size_t faces = 0, skipped = 0;
         // The filter: the prismed triangles (same order as given to CGAL), which of them
@@ -645,6 +668,14 @@ private:
         // distance along an axis (negative: off) and positional tolerance.
         std::vector<cover_face> cover;
         double cover_r = -1, cover_tol = 0, coord = 0;
+
+    private:
+        mutable std::once_flag once_;
+        mutable std::atomic<bool> built_{false};
+        mutable std::optional<cgal_envelope> env_;
+        // The construction's input, until exact() has used it.
+        mutable std::vector<kernel::Point_3> points_;
+        mutable std::vector<std::array<int, 3>> triangles_;
     };
 
     // True if the bounding box of (a, b, c) meets a needle triangle's box.
