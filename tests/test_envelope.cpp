@@ -427,6 +427,11 @@ TEST_CASE("envelope: CGAL's structure is built on the first question the filter 
     CHECK(env.exact_built());
     CHECK(env.cgal() == copy.cgal());
     CHECK_FALSE(env.contains_exact(far[0], far[1], far[2]));
+    // Or ahead of time, for parallel users.
+    const auto ahead = envelope::relative(s.V, s.F, 1e-3);
+    CHECK_FALSE(ahead.exact_built());
+    ahead.prepare_exact();
+    CHECK(ahead.exact_built());
 }
 
 TEST_CASE("envelope: concurrent checks on one envelope agree with a serial pass") {

@@ -83,18 +83,22 @@ void check_against_reference(unsigned seed) {
                 ref.insert(key_of(e));
             } else if (r < 9) {
                 // Many at once (a worker's seeds): the heap is rebuilt, the order kept.
-                // Also as the executor's seeding gives them: runs of several blocks,
-                // joined (a range with no size and no common end).
+                // Also as the executor's seeding gives them (runs of several blocks,
+                // joined), and as a range with no common end (pushed one by one).
                 std::vector<E> batch(1 + rng() % 40);
                 for (E& e : batch) ref.insert(key_of(e = random_entry()));
                 const std::size_t cut = rng() % (batch.size() + 1);
                 const std::vector<std::span<const E>> runs{std::span<const E>(batch).first(cut),
                                                            std::span<const E>(batch).subspan(cut)};
                 if constexpr (requires { q.push_all(std::span<const E>(batch)); }) {
-                    if (rng() % 2)
+                    const unsigned how = rng() % 3;
+                    if (how == 0)
                         q.push_all(std::span<const E>(batch));
-                    else
+                    else if (how == 1)
                         q.push_all(runs | std::views::join);
+                    else
+                        q.push_all(std::span<const E>(batch) |
+                                   std::views::take_while([](const E&) { return true; }));
                 } else {
                     for (const E& e : batch) q.push(e);
                 }

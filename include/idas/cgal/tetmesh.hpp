@@ -294,6 +294,7 @@ inline result insert_soup(const std::vector<vec3>& vertices, const std::vector<t
         for (int k = 0; k < 3; ++k) {
             origin[k] = std::floor(blo[k] / unit) * unit;
             step[k] = std::ceil((bhi[k] - origin[k]) / cells[k] / unit) * unit;
+            if (origin[k] + cells[k] * step[k] < bhi[k]) step[k] += unit; // a rounded quotient
         }
         auto coord = [&](int k, int i) { return origin[k] + i * step[k]; };
         const double keep_away = 100 * r.epsilon * r.epsilon;
@@ -729,6 +730,7 @@ volume_mesh mesh_volume(const std::vector<vec3>& vertices, const std::vector<tri
         }
     }
     const envelope env(soup.vertices, soup.faces, out.insertion.epsilon);
+    env.prepare_exact(); // the optimization asks CGAL: built here, not inside an operation
     algorithms::tet_optimization_options o;
     o.target_length = out.insertion.edge_length;
     o.min_length = min_relative_length * out.insertion.diagonal;

@@ -193,6 +193,12 @@ public:
     /// Whether CGAL's structure has been built (by a question the filter left open, by
     /// `contains_exact` or by `cgal()`). For tests and measurements.
     bool exact_built() const noexcept { return data_ && data_->built(); }
+    /// Builds CGAL's structure now (it is otherwise built on the first question the filter
+    /// leaves open): for a user that will ask exact questions from parallel operations,
+    /// where a failure of the construction would surface inside an operation.
+    void prepare_exact() const {
+        if (data_) data_->exact();
+    }
     /// Built on the first call (see `data::exact`).
     const cgal_envelope* cgal() const { return data_ ? &data_->exact() : nullptr; }
 

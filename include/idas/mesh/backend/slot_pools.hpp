@@ -37,7 +37,10 @@ void grow_prefaulted(std::vector<T, Alloc>& v, std::size_t n, const T& value) {
     if (n <= v.size()) return;
     constexpr std::size_t page = 4096, worth_it = std::size_t{1} << 20;
     if (n > v.capacity() && (n - v.size()) * sizeof(T) >= worth_it) {
-        v.reserve(n);
+        const T copy = value; // `value` may be an element, which the reserve moves
+        // Geometric, as resize's own growth: a deterministic run grows its arrays round
+        // after round, and an exact reserve would move them every round.
+        v.reserve(std::max(n, 2 * v.capacity()));
         const auto first = reinterpret_cast<std::uintptr_t>(v.data() + v.size());
         const auto last = reinterpret_cast<std::uintptr_t>(v.data() + n);
         const std::uintptr_t first_page = first / page, pages = (last - 1) / page - first_page + 1;
@@ -49,6 +52,8 @@ void grow_prefaulted(std::vector<T, Alloc>& v, std::size_t n, const T& value) {
                                   *reinterpret_cast<volatile unsigned char*>(at) = 0;
                               }
                           });
+        v.resize(n, copy);
+        return;
     }
     v.resize(n, value);
 }
