@@ -288,7 +288,7 @@ inline result insert_soup(const std::vector<vec3>& vertices, const std::vector<t
         // is exactly regular: each cube's eight corners are exactly cospherical, which CGAL
         // decides exactly on short mantissas. Corners rounded from blo + (bhi - blo) i / n
         // were almost cospherical, decided exactly on full ones: the sphere's background
-        // (1,613 points) took 16 ms (bench/RESULTS.md, "Session 48").
+        // (1,613 points) took 16 ms (bench/RESULTS.md, "Tetrahedral meshing, session 48").
         const double unit = std::ldexp(1.0, std::ilogb(spacing) - 10);
         std::array<double, 3> origin{}, step{};
         for (int k = 0; k < 3; ++k) {

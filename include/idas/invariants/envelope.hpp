@@ -189,7 +189,6 @@ public:
     /// Input triangles with a prism, and degenerate ones that were skipped.
     std::size_t n_prisms() const noexcept { return data_ ? data_->faces : 0; }
     std::size_t n_skipped_degenerate() const noexcept { return data_ ? data_->skipped : 0; }
-    /// The underlying CGAL object (null when disabled).
     /// Whether CGAL's structure has been built (by a question the filter left open, by
     /// `contains_exact` or by `cgal()`). For tests and measurements.
     bool exact_built() const noexcept { return data_ && data_->built(); }
@@ -199,7 +198,8 @@ public:
     void prepare_exact() const {
         if (data_) data_->exact();
     }
-    /// Built on the first call (see `data::exact`).
+    /// The underlying CGAL object (null when disabled), built on the first call if no
+    /// question has built it yet (see `data::exact`).
     const cgal_envelope* cgal() const { return data_ ? &data_->exact() : nullptr; }
 
     /// Exact: is triangle (a, b, c) inside the envelope? Collinear triangles are tested
@@ -647,7 +647,7 @@ private:
         /// CGAL's envelope, made on the first question the filter leaves open: a user of
         /// the filter alone (the soup simplification asks only `fast_verdict`) never pays
         /// for it, and its construction was the tet mesher's first envelope's 10 of 11 ms
-        /// on a 760-triangle sphere (bench/RESULTS.md, "session 48"). Thread-safe: a
+        /// on a 760-triangle sphere (bench/RESULTS.md, "Session 48, later"). Thread-safe: a
         /// worker that asks while another builds it waits for that one.
         const cgal_envelope& exact() const {
             std::call_once(once_, [this] {
