@@ -8,6 +8,7 @@
 #include <functional>
 #include <limits>
 #include <map>
+#include <random>
 #include <set>
 
 using namespace idas;
@@ -458,6 +459,25 @@ bool link_condition_by_definition(const Mesh& m, const face_counts& face_tets, i
 }
 
 } // namespace
+
+TEST_CASE("tet ops: the link condition's key counts") {
+    // Counts survive growth (64 slots at first) and a reset forgets them all.
+    detail::key_counts counts;
+    std::mt19937_64 rng(9);
+    for (int round = 0; round < 3; ++round) {
+        counts.reset();
+        std::map<std::uint64_t, std::uint32_t> expected;
+        const int keys = round == 1 ? 3000 : 40;
+        for (int i = 0; i < 4 * keys; ++i) {
+            const std::uint64_t key = rng() % std::uint64_t(keys) * 0x100000001ull;
+            CHECK(counts.add(key) == ++expected[key]);
+        }
+        for (const auto& [key, n] : expected) CHECK(counts.count(key) == n);
+        CHECK(counts.count(std::uint64_t(keys) * 0x100000001ull) == 0);
+    }
+    counts.reset();
+    CHECK(counts.count(0) == 0);
+}
 
 TEST_CASE_TEMPLATE("tet ops: the link condition agrees with its definition through random "
                    "collapses",

@@ -130,6 +130,46 @@ TEST_CASE("tet quality: inverted, flat and nearly flat tets") {
     CHECK(last > 100);
 }
 
+TEST_CASE("tet quality: tet_amips_cubed is the energy cubed, and orders tets as it does") {
+    constexpr double inf = std::numeric_limits<double>::infinity();
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<double> u(-1, 1);
+    std::vector<std::pair<double, double>> energies; // (energy, cubed) of the positive tets
+    int inverted = 0;
+    for (int i = 0; i < 2000; ++i) {
+        std::array<vec3, 4> p;
+        for (auto& x : p) x = {u(rng), u(rng), u(rng)};
+        const double e = amips(p), cubed = tet_amips_cubed(p[0], p[1], p[2], p[3]);
+        if (e == inf) {
+            CHECK(cubed == inf);
+            ++inverted;
+            continue;
+        }
+        CHECK(cubed == doctest::Approx(e * e * e).epsilon(1e-12));
+        energies.push_back({e, cubed});
+    }
+    CHECK(inverted > 500);
+    REQUIRE(energies.size() > 500);
+    // The same order, wherever the energies differ by more than rounding.
+    std::sort(energies.begin(), energies.end());
+    for (std::size_t i = 1; i < energies.size(); ++i)
+        if (energies[i].first > energies[i - 1].first * (1 + 1e-12))
+            CHECK(energies[i].second > energies[i - 1].second);
+    // Scale-free far beyond where the energy's own det^2 over- or underflows (1e+-51).
+    const double corner_cubed = std::pow(amips(corner), 3);
+    for (double scale : {1e-100, 1e-60, 1e-20, 1.0, 1e20, 1e60, 1e100}) {
+        std::array<vec3, 4> s = corner;
+        for (auto& x : s) x = x * scale;
+        CHECK(tet_amips_cubed(s[0], s[1], s[2], s[3]) == doctest::Approx(corner_cubed));
+    }
+    // Flat and inverted tets: infinite.
+    const std::array<vec3, 4> flat = {vec3{0, 0, 0}, vec3{1, 0, 0}, vec3{1, 1, 0}, vec3{0, 1, 0}};
+    CHECK(tet_amips_cubed(flat[0], flat[1], flat[2], flat[3]) == inf);
+    CHECK(tet_amips_cubed(regular[0], regular[1], regular[3], regular[2]) == inf);
+    CHECK(tet_amips_cubed(regular[0], regular[1], regular[2], regular[3]) ==
+          doctest::Approx(27).epsilon(1e-14));
+}
+
 TEST_CASE("tet quality: summary over a tet list") {
     // Tet 0 regular, tet 1 its mirror (inverted), tet 2 the cube corner, tet 3 flat.
     std::vector<vec3> v(regular.begin(), regular.end());

@@ -250,7 +250,10 @@ inline bool has(const tri_indices& k, index_t v) noexcept {
 }
 
 inline bool holds(const tracked_faces& l, const tri_indices& k) noexcept {
-    return std::find(l.begin(), l.end(), k) != l.end();
+    // Compared word by word: std::array's == became a call to memcmp per element here.
+    return std::any_of(l.begin(), l.end(), [&](const tri_indices& x) {
+        return x[0] == k[0] && x[1] == k[1] && x[2] == k[2];
+    });
 }
 
 template <class Mesh>
@@ -688,20 +691,21 @@ struct tet_collapse_spec : tet_optimization_invariants<Envelope> {
             !s.verdicts->contains(this->envelope, p[a], p[a], p[a]))
             return false;
         // The old star's largest energy matters only once a new tet exceeds collapse_up_to,
-        // which most accepted collapses never do.
-        double bound = s.collapse_up_to;
+        // which most accepted collapses never do. Energies are compared cubed (no cube root).
+        double bound = s.collapse_up_to * s.collapse_up_to * s.collapse_up_to;
         bool old_star_weighed = false;
         for (index_t g : m.vertex_tets(b)) {
             const auto& tv = m.tet_vertices(g);
             if (tet_local::contains(tv, a)) continue;
             const auto nt = idas::detail::replaced(tv, b, a);
-            const double energy = tet_amips(p[nt[0]], p[nt[1]], p[nt[2]], p[nt[3]]);
+            const double energy = tet_amips_cubed(p[nt[0]], p[nt[1]], p[nt[2]], p[nt[3]]);
             if (energy <= bound) continue;
             if (!old_star_weighed) {
                 old_star_weighed = true;
                 for (index_t h : m.vertex_tets(b)) {
                     const auto& ov = m.tet_vertices(h);
-                    bound = std::max(bound, tet_amips(p[ov[0]], p[ov[1]], p[ov[2]], p[ov[3]]));
+                    bound =
+                        std::max(bound, tet_amips_cubed(p[ov[0]], p[ov[1]], p[ov[2]], p[ov[3]]));
                 }
             }
             if (!(energy <= bound)) return false;
@@ -1018,7 +1022,7 @@ using tet_optimization_epilogue = schedule::sequence<schedule::phase<tet_collaps
 /// The whole algorithm on a tet mesh whose tracked faces are marked in `tracked` and whose
 /// rational vertices (exact positions in `exact`, approximated in the mesh) are listed.
 template <triangle_envelope Envelope, class Mesh = tet_mesh<>, class Lock = lock::vertex_try_lock,
-          class Queue = queue::binary_heap, class Partition = partition::morton>
+          class Queue = queue::dary_heap<4>, class Partition = partition::morton>
 struct tet_optimization {
     template <class Schedule>
     using driver = schedule::driver<Schedule, Mesh, Lock, Queue, Partition>;

@@ -85,6 +85,22 @@ inline double tet_amips(const vec3& a, const vec3& b, const vec3& c, const vec3&
     return frobenius_sq / std::cbrt(det * det);
 }
 
+/// The cube of tet_amips(a, b, c, d), without the cube root: with f = |J|_F^2 and
+/// g = det J > 0 the energy is f / g^(2/3), so its cube is f^3 / g^2, computed as (f / g)^2 f
+/// so that nothing overflows where the energy does not. Orders tets as the energy does (up
+/// to rounding); +infinity when flat or inverted. For comparisons: the collapse's energy test
+/// weighs every tet of two stars, and libm's cbrt was 8% of a run.
+inline double tet_amips_cubed(const vec3& a, const vec3& b, const vec3& c, const vec3& d) noexcept {
+    const vec3 u = b - a, v = c - a, w = d - a;
+    const double inv_sqrt3 = 1 / std::numbers::sqrt3, inv_sqrt6 = 1 / std::sqrt(6.0);
+    const vec3 j1 = u, j2 = (2 * v - u) * inv_sqrt3, j3 = (3 * w - u - v) * inv_sqrt6;
+    const double det = std::numbers::sqrt2 * dot(u, cross(v, w));
+    if (!(det > 0)) return std::numeric_limits<double>::infinity();
+    const double frobenius_sq = squared_norm(j1) + squared_norm(j2) + squared_norm(j3);
+    const double ratio = frobenius_sq / det;
+    return ratio * ratio * frobenius_sq;
+}
+
 /// AMIPS of the tet (p, b, c, d) as a function of its first vertex p, with its gradient
 /// and Hessian there, for Newton smoothing of p. With J as above, f = |J|_F^2 and
 /// g = det J (affine in p):

@@ -26,6 +26,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <iterator>
@@ -33,6 +34,7 @@
 #include <optional>
 #include <span>
 #include <utility>
+#include <vector>
 
 namespace idas {
 
@@ -143,34 +145,87 @@ bool closed_edge_ring(const Mesh& m, index_t a, index_t b, edge_ring& r,
 // virtual vertex ω (Dey et al. 1999). Both vertex links must also be 2-spheres there,
 // which refuses vertices that are non-manifold in the input.
 
-/// Number of elements two sorted, duplicate-free ranges share.
-template <class Range>
-std::size_t count_common_sorted(const Range& a, const Range& b) {
-    std::size_t n = 0;
-    for (auto i = a.begin(), j = b.begin(); i != a.end() && j != b.end();) {
-        if (*i < *j)
-            ++i;
-        else if (*j < *i)
-            ++j;
-        else
-            ++n, ++i, ++j;
+/// Counts of 64-bit keys (link edges, link vertices): open addressing, emptied in O(1) by
+/// moving to a new stamp. The link condition asked every collapse to sort its links' edges
+/// and vertices (a tenth of a tet optimization's run); counting them here takes one probe
+/// each, and the links are compared by looking one up in the other.
+class key_counts {
+public:
+    /// Empties the set.
+    void reset() noexcept {
+        if (slots_.empty() || ++stamp_ == 0) {
+            slots_.assign(std::max<std::size_t>(slots_.size(), 64), slot{});
+            stamp_ = 1;
+            set_room(slots_.size());
+        }
+        size_ = 0;
     }
-    return n;
-}
+    /// Counts one more `key`; returns its count now.
+    std::uint32_t add(std::uint64_t key) {
+        for (std::size_t i = home(key);; i = (i + 1) & mask_) {
+            slot& s = slots_[i];
+            if (s.stamp != stamp_) {
+                s = {key, 1, stamp_};
+                if (2 * ++size_ > slots_.size()) grow();
+                return 1;
+            }
+            if (s.key == key) return ++s.count;
+        }
+    }
+    std::uint32_t count(std::uint64_t key) const noexcept {
+        for (std::size_t i = home(key);; i = (i + 1) & mask_) {
+            const slot& s = slots_[i];
+            if (s.stamp != stamp_) return 0;
+            if (s.key == key) return s.count;
+        }
+    }
 
-/// A vertex's link, closed by ω: its triangles (the faces opposite it, each sorted),
-/// its real vertices and edges (sorted, unique; an edge as `edge_key`), its open edges
-/// (in one triangle: coned to ω) and the rim (their vertices, whose edges to ω close it).
-/// ω's own elements are implied by `open`, so nothing sorts them.
+private:
+    struct slot {
+        std::uint64_t key = 0;
+        std::uint32_t count = 0, stamp = 0;
+    };
+    std::size_t home(std::uint64_t key) const noexcept {
+        return std::size_t((key * 0x9E3779B97F4A7C15ull) >> shift_);
+    }
+    void set_room(std::size_t room) noexcept {
+        shift_ = 64 - std::countr_zero(room);
+        mask_ = room - 1;
+    }
+    /// Twice the room, the live keys moved over (a star larger than any before).
+    void grow() {
+        std::vector<slot> old(2 * slots_.size());
+        old.swap(slots_);
+        set_room(slots_.size());
+        for (const slot& s : old)
+            if (s.stamp == stamp_)
+                for (std::size_t i = home(s.key);; i = (i + 1) & mask_)
+                    if (slots_[i].stamp != stamp_) {
+                        slots_[i] = s;
+                        break;
+                    }
+    }
+    std::vector<slot> slots_;
+    std::uint32_t stamp_ = 0;
+    std::size_t size_ = 0, mask_ = 0;
+    int shift_ = 64;
+};
+
+/// A vertex's link, closed by ω: its triangles (the faces opposite it, each sorted), its
+/// real vertices and edges (each once, an edge as `edge_key`, counted in `vertex_count`
+/// and `edge_count`: 1 for an open edge, 2 for an inner one), its open edges (in one
+/// triangle: coned to ω) and the rim (their vertices, each once, whose edges to ω close it;
+/// in `rim_count`). ω's own elements are implied by `open`.
 struct link_buffers {
     std::vector<tri_indices> tris;
     std::vector<index_t> verts;
     std::vector<std::uint64_t> edges;
     std::vector<std::uint64_t> open;
     std::vector<index_t> rim;
+    key_counts vertex_count, edge_count, rim_count;
 };
 
-/// An edge (x < y) as one sortable word: one integer compare where a pair needs two.
+/// An edge (x < y) as one word: one integer compare where a pair needs two.
 constexpr std::uint64_t edge_key(index_t x, index_t y) noexcept {
     static_assert(sizeof(index_t) <= 4, "two vertex indices must fit in one 64-bit key");
     return std::uint64_t(x) << 32 | y;
@@ -187,41 +242,33 @@ inline link_buffers& thread_link_buffers(int which) {
 template <class Mesh>
 bool closed_vertex_link(const Mesh& m, index_t v, link_buffers& l) {
     l.tris.clear(), l.verts.clear(), l.edges.clear(), l.open.clear(), l.rim.clear();
+    l.vertex_count.reset(), l.edge_count.reset();
     for (index_t g : m.vertex_tets(v)) {
         tri_indices f{};
         std::size_t k = 0;
         for (index_t x : m.tet_vertices(g))
             if (x != v) f[k++] = x;
-        std::sort(f.begin(), f.end());
+        if (f[0] > f[1]) std::swap(f[0], f[1]);
+        if (f[1] > f[2]) std::swap(f[1], f[2]);
+        if (f[0] > f[1]) std::swap(f[0], f[1]);
         l.tris.push_back(f);
-        l.verts.insert(l.verts.end(), f.begin(), f.end());
-        l.edges.push_back(edge_key(f[0], f[1])), l.edges.push_back(edge_key(f[0], f[2]));
-        l.edges.push_back(edge_key(f[1], f[2]));
-    }
-    std::sort(l.edges.begin(), l.edges.end());
-    std::size_t unique_edges = 0;
-    for (std::size_t i = 0, n = l.edges.size(); i < n;) {
-        std::size_t j = i + 1;
-        while (j < n && l.edges[j] == l.edges[i]) ++j;
-        if (j - i > 2) return false;
-        if (j - i == 1) {
-            l.open.push_back(l.edges[i]);
-            l.rim.push_back(index_t(l.edges[i] >> 32)), l.rim.push_back(index_t(l.edges[i]));
+        for (index_t x : f)
+            if (l.vertex_count.add(x) == 1) l.verts.push_back(x);
+        for (const std::uint64_t e :
+             {edge_key(f[0], f[1]), edge_key(f[0], f[2]), edge_key(f[1], f[2])}) {
+            const std::uint32_t n = l.edge_count.add(e);
+            if (n == 1) l.edges.push_back(e);
+            if (n > 2) return false;
         }
-        l.edges[unique_edges++] = l.edges[i];
-        i = j;
     }
-    l.edges.resize(unique_edges);
-    std::sort(l.rim.begin(), l.rim.end());
-    std::size_t rim_verts = 0;
-    for (std::size_t i = 0, n = l.rim.size(); i < n; i += 2) {
-        if (i + 1 == n || l.rim[i + 1] != l.rim[i] || (i + 2 < n && l.rim[i + 2] == l.rim[i]))
-            return false;
-        l.rim[rim_verts++] = l.rim[i];
-    }
-    l.rim.resize(rim_verts);
-    std::sort(l.verts.begin(), l.verts.end());
-    l.verts.erase(std::unique(l.verts.begin(), l.verts.end()), l.verts.end());
+    for (const std::uint64_t e : l.edges)
+        if (l.edge_count.count(e) == 1) l.open.push_back(e);
+    l.rim_count.reset();
+    for (const std::uint64_t e : l.open)
+        for (const index_t x : {index_t(e >> 32), index_t(e)})
+            if (l.rim_count.add(x) == 1) l.rim.push_back(x);
+    for (const index_t x : l.rim)
+        if (l.rim_count.count(x) != 2) return false;
     const long omega = l.open.empty() ? 0 : 1;
     const long chi = long(l.verts.size()) + omega - long(l.edges.size() + l.rim.size()) +
                      long(l.tris.size() + l.open.size());
@@ -280,14 +327,18 @@ bool link_condition_3d_holds(const Mesh& m, index_t a, index_t b) {
     // vertex iff both links are open, xω a common edge iff x is on both rims, and xyω a
     // common triangle iff xy is open in both.
     boost::container::small_vector<index_t, 64> common;
-    std::ranges::set_intersection(la.verts, lb.verts, std::back_inserter(common));
+    for (const index_t x : lb.verts)
+        if (la.vertex_count.count(x) != 0) common.push_back(x);
     const std::size_t omega = !la.open.empty() && !lb.open.empty() ? 1 : 0;
-    return common.size() + omega == link_verts &&
-           detail::count_common_sorted(la.edges, lb.edges) +
-                   detail::count_common_sorted(la.rim, lb.rim) ==
-               link_edges &&
-           detail::count_common_sorted(la.open, lb.open) == 0 &&
-           !detail::share_real_triangle(la, lb, {common.data(), common.size()});
+    if (common.size() + omega != link_verts) return false;
+    std::size_t common_edges = 0;
+    for (const std::uint64_t e : lb.edges) common_edges += la.edge_count.count(e) != 0;
+    for (const index_t x : lb.rim) common_edges += la.rim_count.count(x) != 0;
+    if (common_edges != link_edges) return false;
+    for (const std::uint64_t e : lb.open) // open in both: a common triangle xyω
+        if (la.edge_count.count(e) == 1) return false;
+    std::sort(common.begin(), common.end());
+    return !detail::share_real_triangle(la, lb, {common.data(), common.size()});
 }
 
 namespace detail {
