@@ -71,17 +71,28 @@ inline std::array<double, 6> tet_dihedral_angles(const vec3& a, const vec3& b, c
     return out;
 }
 
-/// The conformal AMIPS energy described at the top of this file: 3 for a regular tet,
-/// larger for any other shape, +infinity when flat or inverted (computed det <= 0).
-inline double tet_amips(const vec3& a, const vec3& b, const vec3& c, const vec3& d) noexcept {
+namespace detail {
+/// The two terms of the AMIPS energy of tet (a, b, c, d): |J|_F^2 and det J.
+struct amips_terms {
+    double frobenius_sq, det;
+};
+inline amips_terms amips_terms_of(const vec3& a, const vec3& b, const vec3& c,
+                                  const vec3& d) noexcept {
     const vec3 u = b - a, v = c - a, w = d - a;
     // Columns of J = E R^-1; R^-1 = [[1, -1/sqrt3, -1/sqrt6], [0, 2/sqrt3, -1/sqrt6],
     // [0, 0, 3/sqrt6]] (R is upper triangular), and det R^-1 = sqrt(2).
     const double inv_sqrt3 = 1 / std::numbers::sqrt3, inv_sqrt6 = 1 / std::sqrt(6.0);
     const vec3 j1 = u, j2 = (2 * v - u) * inv_sqrt3, j3 = (3 * w - u - v) * inv_sqrt6;
-    const double det = std::numbers::sqrt2 * dot(u, cross(v, w));
+    return {squared_norm(j1) + squared_norm(j2) + squared_norm(j3),
+            std::numbers::sqrt2 * dot(u, cross(v, w))};
+}
+} // namespace detail
+
+/// The conformal AMIPS energy described at the top of this file: 3 for a regular tet,
+/// larger for any other shape, +infinity when flat or inverted (computed det <= 0).
+inline double tet_amips(const vec3& a, const vec3& b, const vec3& c, const vec3& d) noexcept {
+    const auto [frobenius_sq, det] = detail::amips_terms_of(a, b, c, d);
     if (!(det > 0)) return std::numeric_limits<double>::infinity();
-    const double frobenius_sq = squared_norm(j1) + squared_norm(j2) + squared_norm(j3);
     return frobenius_sq / std::cbrt(det * det);
 }
 
@@ -91,12 +102,8 @@ inline double tet_amips(const vec3& a, const vec3& b, const vec3& c, const vec3&
 /// to rounding); +infinity when flat or inverted. For comparisons: the collapse's energy test
 /// weighs every tet of two stars, and libm's cbrt was 8% of a run.
 inline double tet_amips_cubed(const vec3& a, const vec3& b, const vec3& c, const vec3& d) noexcept {
-    const vec3 u = b - a, v = c - a, w = d - a;
-    const double inv_sqrt3 = 1 / std::numbers::sqrt3, inv_sqrt6 = 1 / std::sqrt(6.0);
-    const vec3 j1 = u, j2 = (2 * v - u) * inv_sqrt3, j3 = (3 * w - u - v) * inv_sqrt6;
-    const double det = std::numbers::sqrt2 * dot(u, cross(v, w));
+    const auto [frobenius_sq, det] = detail::amips_terms_of(a, b, c, d);
     if (!(det > 0)) return std::numeric_limits<double>::infinity();
-    const double frobenius_sq = squared_norm(j1) + squared_norm(j2) + squared_norm(j3);
     const double ratio = frobenius_sq / det;
     return ratio * ratio * frobenius_sq;
 }
