@@ -130,23 +130,26 @@ TEST_CASE("tet quality: inverted, flat and nearly flat tets") {
     CHECK(last > 100);
 }
 
-TEST_CASE("tet quality: tet_amips_cubed is the energy cubed, and orders tets as it does") {
+TEST_CASE("tet quality: tet_amips_three_halves is the energy to the power 3/2, in its order") {
     constexpr double inf = std::numeric_limits<double>::infinity();
+    auto three_halves = [](const std::array<vec3, 4>& p) {
+        return tet_amips_three_halves(p[0], p[1], p[2], p[3]);
+    };
     std::mt19937 rng(11);
     std::uniform_real_distribution<double> u(-1, 1);
-    std::vector<std::pair<double, double>> energies; // (energy, cubed) of the positive tets
+    std::vector<std::pair<double, double>> energies; // (energy, power) of the positive tets
     int inverted = 0;
     for (int i = 0; i < 2000; ++i) {
         std::array<vec3, 4> p;
         for (auto& x : p) x = {u(rng), u(rng), u(rng)};
-        const double e = amips(p), cubed = tet_amips_cubed(p[0], p[1], p[2], p[3]);
+        const double e = amips(p), power = three_halves(p);
         if (e == inf) {
-            CHECK(cubed == inf);
+            CHECK(power == inf);
             ++inverted;
             continue;
         }
-        CHECK(cubed == doctest::Approx(e * e * e).epsilon(1e-12));
-        energies.push_back({e, cubed});
+        CHECK(power == doctest::Approx(e * std::sqrt(e)).epsilon(1e-12));
+        energies.push_back({e, power});
     }
     CHECK(inverted > 500);
     REQUIRE(energies.size() > 500);
@@ -156,18 +159,28 @@ TEST_CASE("tet quality: tet_amips_cubed is the energy cubed, and orders tets as 
         if (energies[i].first > energies[i - 1].first * (1 + 1e-12))
             CHECK(energies[i].second > energies[i - 1].second);
     // Scale-free far beyond where the energy's own det^2 over- or underflows (1e+-51).
-    const double corner_cubed = std::pow(amips(corner), 3);
+    const double corner_power = amips(corner) * std::sqrt(amips(corner));
     for (double scale : {1e-100, 1e-60, 1e-20, 1.0, 1e20, 1e60, 1e100}) {
         std::array<vec3, 4> s = corner;
         for (auto& x : s) x = x * scale;
-        CHECK(tet_amips_cubed(s[0], s[1], s[2], s[3]) == doctest::Approx(corner_cubed));
+        CHECK(three_halves(s) == doctest::Approx(corner_power));
     }
+    // Slivers: finite and growing as they flatten, past energies of 1e100 (where a cube
+    // would overflow and tie them with inverted tets), until the volume itself underflows.
+    double last = 0;
+    for (double h : {1e-3, 1e-50, 1e-150, 1e-160, 1e-300}) {
+        const std::array<vec3, 4> s = {vec3{0, 0, 0}, vec3{1, 0, 0}, vec3{0, 1, 0}, vec3{0, 0, h}};
+        const double power = three_halves(s);
+        CHECK(power > last);
+        CHECK(power < inf);
+        last = power;
+    }
+    CHECK(last > 1e300);
     // Flat and inverted tets: infinite.
     const std::array<vec3, 4> flat = {vec3{0, 0, 0}, vec3{1, 0, 0}, vec3{1, 1, 0}, vec3{0, 1, 0}};
-    CHECK(tet_amips_cubed(flat[0], flat[1], flat[2], flat[3]) == inf);
-    CHECK(tet_amips_cubed(regular[0], regular[1], regular[3], regular[2]) == inf);
-    CHECK(tet_amips_cubed(regular[0], regular[1], regular[2], regular[3]) ==
-          doctest::Approx(27).epsilon(1e-14));
+    CHECK(three_halves(flat) == inf);
+    CHECK(three_halves({regular[0], regular[1], regular[3], regular[2]}) == inf);
+    CHECK(three_halves(regular) == doctest::Approx(3 * std::sqrt(3.0)).epsilon(1e-14));
 }
 
 TEST_CASE("tet quality: summary over a tet list") {

@@ -691,21 +691,23 @@ struct tet_collapse_spec : tet_optimization_invariants<Envelope> {
             !s.verdicts->contains(this->envelope, p[a], p[a], p[a]))
             return false;
         // The old star's largest energy matters only once a new tet exceeds collapse_up_to,
-        // which most accepted collapses never do. Energies are compared cubed (no cube root).
-        double bound = s.collapse_up_to * s.collapse_up_to * s.collapse_up_to;
+        // which most accepted collapses never do. Energies are compared to the power 3/2
+        // (no cube root; a bound at or below 0 stays one that no energy is under).
+        const double up_to = s.collapse_up_to;
+        double bound = up_to > 0 ? up_to * std::sqrt(up_to) : up_to;
         bool old_star_weighed = false;
         for (index_t g : m.vertex_tets(b)) {
             const auto& tv = m.tet_vertices(g);
             if (tet_local::contains(tv, a)) continue;
             const auto nt = idas::detail::replaced(tv, b, a);
-            const double energy = tet_amips_cubed(p[nt[0]], p[nt[1]], p[nt[2]], p[nt[3]]);
+            const double energy = tet_amips_three_halves(p[nt[0]], p[nt[1]], p[nt[2]], p[nt[3]]);
             if (energy <= bound) continue;
             if (!old_star_weighed) {
                 old_star_weighed = true;
                 for (index_t h : m.vertex_tets(b)) {
                     const auto& ov = m.tet_vertices(h);
-                    bound =
-                        std::max(bound, tet_amips_cubed(p[ov[0]], p[ov[1]], p[ov[2]], p[ov[3]]));
+                    bound = std::max(
+                        bound, tet_amips_three_halves(p[ov[0]], p[ov[1]], p[ov[2]], p[ov[3]]));
                 }
             }
             if (!(energy <= bound)) return false;

@@ -151,8 +151,9 @@ bool closed_edge_ring(const Mesh& m, index_t a, index_t b, edge_ring& r,
 /// each, and the links are compared by looking one up in the other.
 class key_counts {
 public:
+    key_counts() { reset(); }
     /// Empties the set.
-    void reset() noexcept {
+    void reset() {
         if (slots_.empty() || ++stamp_ == 0) {
             slots_.assign(std::max<std::size_t>(slots_.size(), 64), slot{});
             stamp_ = 1;
