@@ -235,12 +235,7 @@ struct tet_optimization_state {
 
 namespace detail {
 
-inline tri_indices sorted_triple(index_t a, index_t b, index_t c) noexcept {
-    if (a > b) std::swap(a, b);
-    if (b > c) std::swap(b, c);
-    if (a > b) std::swap(a, b);
-    return {a, b, c};
-}
+using idas::detail::sorted_triple;
 
 /// Tracked faces (sorted vertex triples) among the tets an operation replaces.
 using tracked_faces = boost::container::small_vector<tri_indices, 24>;
@@ -358,30 +353,20 @@ void for_each_tet_edge_from(const Mesh& m, index_t v, Fn&& fn) {
 }
 
 /// Every edge of the tets `tets` (slots), each once, in the order first met. The edges
-/// met are kept in an open-addressing table with more slots than edge visits (each edge
-/// is met in several tets, so it stays under half full), on the stack for stars of up to 85
-/// tets: a list searched from the start made this quadratic in the star, 7% of x.stl's
+/// met are counted in a hash table (the link condition's, one per thread, emptied by a
+/// stamp): a list searched from the start made this quadratic in the star, 7% of x.stl's
 /// run, whose insertion leaves vertices with hundreds of tets (bench/RESULTS.md,
-/// "Session 44").
+/// "Session 44"). `fn` must not call it again (it pushes renewals).
 template <class Mesh, class Tets, class Fn>
 void for_each_edge_of(const Mesh& m, const Tets& tets, Fn&& fn) {
-    constexpr std::uint64_t empty = ~std::uint64_t(0);
-    const std::size_t visits = 6 * std::size_t(std::ranges::distance(tets));
-    if (visits == 0) return;
-    const int bits = std::max(6, int(std::bit_width(visits))); // more slots than visits
-    boost::container::small_vector<std::uint64_t, 512> seen(std::size_t(1) << bits, empty);
-    const std::uint64_t mask = (std::uint64_t(1) << bits) - 1;
+    thread_local idas::detail::key_counts seen;
+    seen.reset();
     for (index_t g : tets) {
         const auto& tv = m.tet_vertices(g);
         for (std::uint8_t le = 0; le < 6; ++le) {
             const auto ev = tet_local::edge_vertices[le];
             const auto [lo, hi] = std::minmax(tv[ev[0]], tv[ev[1]]);
-            const std::uint64_t key = std::uint64_t(lo) << 32 | hi;
-            std::uint64_t at = (key * 0x9e3779b97f4a7c15ull) >> (64 - bits);
-            while (seen[at] != empty && seen[at] != key) at = (at + 1) & mask;
-            if (seen[at] == key) continue;
-            seen[at] = key;
-            fn(m.tuple_from_edge(g, le));
+            if (seen.add(idas::detail::edge_key(lo, hi)) == 1) fn(m.tuple_from_edge(g, le));
         }
     }
 }

@@ -29,7 +29,6 @@
 #include <bit>
 #include <cmath>
 #include <cstdint>
-#include <iterator>
 #include <limits>
 #include <optional>
 #include <span>
@@ -232,6 +231,14 @@ constexpr std::uint64_t edge_key(index_t x, index_t y) noexcept {
     return std::uint64_t(x) << 32 | y;
 }
 
+/// A face's vertices in ascending order: the key of a face whatever its orientation.
+inline tri_indices sorted_triple(index_t a, index_t b, index_t c) noexcept {
+    if (a > b) std::swap(a, b);
+    if (b > c) std::swap(b, c);
+    if (a > b) std::swap(a, b);
+    return {a, b, c};
+}
+
 inline link_buffers& thread_link_buffers(int which) {
     thread_local link_buffers buffers[2];
     return buffers[which];
@@ -245,13 +252,11 @@ bool closed_vertex_link(const Mesh& m, index_t v, link_buffers& l) {
     l.tris.clear(), l.verts.clear(), l.edges.clear(), l.open.clear(), l.rim.clear();
     l.vertex_count.reset(), l.edge_count.reset();
     for (index_t g : m.vertex_tets(v)) {
-        tri_indices f{};
+        tri_indices opposite{};
         std::size_t k = 0;
         for (index_t x : m.tet_vertices(g))
-            if (x != v) f[k++] = x;
-        if (f[0] > f[1]) std::swap(f[0], f[1]);
-        if (f[1] > f[2]) std::swap(f[1], f[2]);
-        if (f[0] > f[1]) std::swap(f[0], f[1]);
+            if (x != v) opposite[k++] = x;
+        const tri_indices f = sorted_triple(opposite[0], opposite[1], opposite[2]);
         l.tris.push_back(f);
         for (index_t x : f)
             if (l.vertex_count.add(x) == 1) l.verts.push_back(x);
