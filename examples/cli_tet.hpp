@@ -65,19 +65,22 @@ void print_tet_stats(const tet_stats& st) {
                q.quality.min, q.quality.mean, q.quality.max);
 }
 
-int run_tet_info(const std::string& in, bool as_json) {
+int run_tet_info(const std::string& in, bool as_json, const info_reference& ref) {
     const stopwatch clock;
     const idas::io::volume v = load_tets(in);
     const tet_stats st = compute_tet_stats(v);
+    const auto distance = measure_reference(v.vertices, st.boundary_face_list, ref);
     if (as_json) {
         json j;
         j["file"] = in;
         j.update(tet_stats_json(st));
+        if (distance) j["reference"] = reference_distance_json(*distance);
         j["seconds"] = clock.seconds();
         fmt::print("{}\n", j.dump(2));
     } else {
         fmt::print("{}\n", in);
         print_tet_stats(st);
+        if (distance) print_reference_distance(*distance, "boundary");
     }
     return 0;
 }

@@ -1,6 +1,6 @@
 // idas: the command-line tool.
 //
-//   idas info IN [--json] [--self-intersections]
+//   idas info IN [--json] [--self-intersections] [--reference REF [--samples N]]
 //                                              statistics and topology of a mesh file
 //   idas convert IN OUT [--ascii] [--msh-version V]
 //                                              any supported format to any other
@@ -62,6 +62,7 @@
 #include "tool/common.hpp"
 #include "tool/decimate.hpp"
 #include "tool/harmonic.hpp"
+#include "tool/reference_distance.hpp"
 #include "tool/remesh.hpp"
 #include "tool/surface_stats.hpp"
 #include "tool/tet_stats.hpp"
@@ -170,13 +171,35 @@ std::string describe_attributes(const idas::io::surface& s) {
 
 // ---- info ----------------------------------------------------------------------------------
 
-int run_info(const std::string& in, bool as_json, bool self_intersections) {
+/// `--reference FILE` and `--samples N` of info.
+struct info_reference {
+    std::string file;
+    int samples = 16;
+};
+
+std::optional<reference_distance> measure_reference(const std::vector<vec3>& V,
+                                                    const std::vector<idas::tri_indices>& F,
+                                                    const info_reference& r) {
+    if (r.file.empty()) return std::nullopt;
+    if (r.samples < 0 || r.samples > max_samples_per_face)
+        throw idas::input_error("--samples must be 0 to " + std::to_string(max_samples_per_face));
+    if (is_tet_path(r.file))
+        throw idas::input_error(r.file + ": the reference must be a triangle surface, not a "
+                                         "tet mesh (convert it to its boundary first)");
+    return measure_against_reference(V, F, load(r.file, false), r.file, r.samples);
+}
+
+int run_info(const std::string& in, bool as_json, bool self_intersections,
+             const info_reference& ref) {
     phase_times phases;
     const idas::io::surface s = load(in);
     phases.lap("read");
     const surface_info info = inspect_surface(s, self_intersections, phases);
+    const auto distance = measure_reference(s.vertices, s.faces, ref);
+    if (distance) phases.lap("reference");
     if (as_json) {
         json j = surface_info_json(in, s, info);
+        if (distance) j["reference"] = reference_distance_json(*distance);
         j["seconds"] = phases.total();
         j["phases"] = phases.to_json();
         fmt::print("{}\n", j.dump(2));
@@ -186,6 +209,7 @@ int run_info(const std::string& in, bool as_json, bool self_intersections) {
         if (info.self_intersections)
             fmt::print("self-intersecting face pairs: {}\n", *info.self_intersections);
         fmt::print("attributes: {}\n", s.attributes.empty() ? "none" : describe_attributes(s));
+        if (distance) print_reference_distance(*distance, "surface");
     }
     return 0;
 }
@@ -536,6 +560,17 @@ int run(int argc, char** argv) {
     info->add_flag("--self-intersections", self_intersections,
                    "count the pairs of faces that meet other than at shared vertices and edges "
                    "(exact)");
+    info_reference reference;
+    auto* reference_option = info->add_option(
+        "--reference", reference.file,
+        "a triangle surface to measure against: the farthest sample of the mesh's "
+        "surface (a tet mesh's boundary) from it and of it from that surface, also "
+        "relative to its bounding-box diagonal");
+    info->add_option("--samples", reference.samples,
+                     "samples per face for --reference, besides corners, edge midpoints and "
+                     "centroid (0 to 10000)")
+        ->needs(reference_option)
+        ->capture_default_str();
 
     auto* convert = app.add_subcommand("convert", "Convert a mesh between file formats");
     convert->add_option("IN", in, "input mesh file")->required();
@@ -683,8 +718,8 @@ int run(int argc, char** argv) {
     }
 
     if (info->parsed())
-        return is_tet_path(in) ? run_tet_info(in, as_json)
-                               : run_info(in, as_json, self_intersections);
+        return is_tet_path(in) ? run_tet_info(in, as_json, reference)
+                               : run_info(in, as_json, self_intersections, reference);
     if (remesh->parsed()) return run_remesh(ra);
     if (harmonic->parsed()) return run_harmonic(ha);
     if (tetmesh->parsed()) return run_tetmesh(ta);

@@ -116,6 +116,26 @@ expect_field "info 37989_sf.obj" 'd["nonmanifold_edges"]' 232
 expect_field "info 37989_sf.obj" 'd["vertices"]' 5233
 expect_field "info 37989_sf.obj" 'd["faces"]' 11210
 
+# --reference: a triangle and its copy a quarter above are a quarter apart both ways.
+printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n' >"$TMP/tri.obj"
+printf 'v 0 0 0.25\nv 1 0 0.25\nv 0 1 0.25\nf 1 2 3\n' >"$TMP/tri_up.obj"
+run info "$TMP/tri_up.obj" --json --reference "$TMP/tri.obj"
+expect_rc "info --reference on a surface" 0
+expect_field "info --reference: surface to reference" "abs(d['reference']['surface_to_reference']['max'] - 0.25) < 1e-15" True
+expect_field "info --reference: reference to surface" "abs(d['reference']['reference_to_surface']['max'] - 0.25) < 1e-15" True
+expect_field "info --reference: relative to the reference's diagonal" "abs(d['reference']['reference_to_surface']['relative'] - 0.25 / 2 ** 0.5) < 1e-15" True
+run info "$DATA/bunny.off" --json --reference "$DATA/bunny.off"
+expect_field "info --reference on itself" "d['reference']['surface_to_reference']['max'] < 1e-12 and d['reference']['reference_to_surface']['max'] < 1e-12" True
+run info "$TMP/tri_up.obj" --reference "$TMP/tri.obj"
+if grep -q 'reference -> surface' "$TMP/out"; then ok; else fail "info --reference (text): no distance line"; fi
+run info "$TMP/tri_up.obj" --json --reference "$TMP/tri.obj" --samples -1
+expect_error "info --samples -1" 2 "samples"
+run info "$TMP/tri_up.obj" --json --reference "$TMP/tri.obj" --samples 100000
+expect_error "info --samples 100000" 2 "samples"
+run info "$TMP/tri_up.obj" --samples 4
+expect_error "info --samples without --reference" 2 "reference"
+run info "$TMP/tri_up.obj" --reference "$TMP/no_such_reference.obj"
+expect_error "info --reference missing file" 2 "no_such_reference.obj"
 run info "$DATA/37989_sf.obj"
 expect_rc "info 37989_sf.obj (text)" 0
 if grep -q 'non-manifold edge (' "$TMP/out"; then ok; else fail "info 37989_sf.obj (text): problems not listed"; fi
@@ -771,6 +791,17 @@ expect_field "tetmesh optimize" "d['boundary']['closed_2_manifold']" True
 expect_field "tetmesh optimize simplifies" "d['inserted_triangles'] == d['simplified_triangles'] < d['triangles']" True
 run info "$TMP/hgq.msh" --json
 expect_rc "tetmesh optimized output reads back" 0
+expect_field "info's AMIPS histogram counts every finite tet" "sum(d['amips']['histogram']['counts']) == d['amips']['finite_tets'] == d['tets']" True
+expect_field "info's AMIPS histogram: none above the stop energy" "sum(c for b, c in zip(d['amips']['histogram']['bounds'], d['amips']['histogram']['counts']) if b >= 10)" 0
+# The boundary lies within the envelope (epsilon: 1e-3 of the input's diagonal), measured
+# apart from the envelope the run used.
+run info "$TMP/hgq.msh" --json --reference "$DATA/hour_glass.off" --samples 25
+expect_rc "info --reference" 0
+expect_field "tetmesh boundary within epsilon of the input" "0 <= d['reference']['surface_to_reference']['relative'] <= 1e-3 * (1 + 1e-9)" True
+expect_field "the input near the tetmesh boundary" "0 <= d['reference']['reference_to_surface']['relative'] < 0.05" True
+expect_field "info --reference samples" "d['reference']['samples_per_face']" 25
+run info "$DATA/hour_glass.off" --reference "$TMP/hgq.msh"
+expect_error "info --reference a tet mesh" 2 "triangle surface"
 # x.stl's second round leaves a few tets above the stop energy (one thread): collapses,
 # swaps and smoothing clear them, and no third round runs.
 run tetmesh "$DATA/x.stl" "$TMP/xq.msh" --json

@@ -210,3 +210,37 @@ TEST_CASE("tet quality: summary over a tet list") {
     CHECK(empty.amips_finite == 0);
     CHECK(empty.dihedral_deg.max == 0);
 }
+
+TEST_CASE("tet quality: the AMIPS histogram puts each finite energy in its bin") {
+    // The regular tet (3, the first bin, even if rounded just below), the cube corner
+    // (3.57: [3.5, 3.75)), and the regular tet flattened towards its base until its energy
+    // passes 10 and 1000; the inverted and flat tets of the summary test are in no bin.
+    std::vector<vec3> v(regular.begin(), regular.end());
+    v.insert(v.end(), corner.begin(), corner.end());
+    const vec3 base_centre = (regular[0] + regular[1] + regular[2]) / 3.0;
+    std::vector<tet_indices> tets = {{0, 1, 2, 3}, {4, 5, 6, 7}, {0, 1, 3, 2}};
+    std::vector<double> energies = {amips(regular), amips(corner)};
+    for (const double height : {0.05, 1e-5}) {
+        v.push_back(base_centre + (regular[3] - base_centre) * height);
+        const index_t apex = index_t(v.size() - 1);
+        tets.push_back({0, 1, 2, apex});
+        energies.push_back(tet_amips(v[0], v[1], v[2], v[apex]));
+    }
+    REQUIRE(energies[2] > 10);
+    REQUIRE(energies[3] > 1000);
+    const tet_quality_summary s = summarize_tet_quality(v, tets);
+    CHECK(s.amips_finite == 4);
+    const auto& bounds = amips_histogram_bounds;
+    std::array<std::size_t, bounds.size()> expected{};
+    for (const double e : energies) {
+        std::size_t bin = 0;
+        while (bin + 1 < bounds.size() && bounds[bin + 1] <= e) ++bin;
+        ++expected[bin];
+    }
+    CHECK(s.amips_histogram == expected);
+    CHECK(s.amips_histogram[0] == 1);
+    CHECK(s.amips_histogram[2] == 1);     // [3.5, 3.75)
+    CHECK(s.amips_histogram.back() == 1); // from 1000 up
+    CHECK(std::is_sorted(bounds.begin(), bounds.end()));
+    CHECK(bounds.front() == 3);
+}

@@ -195,6 +195,11 @@ inline json tet_stats_json(const tet_stats& st) {
                   {"mean", maybe(q.amips.mean)},
                   {"max", maybe(q.amips.max)},
                   {"finite_tets", q.amips_finite},
+                  {"histogram",
+                   {{"bounds", idas::amips_histogram_bounds},
+                    {"counts", q.amips_histogram},
+                    {"note", "counts[i]: energies from bounds[i] up to bounds[i + 1] (the last: "
+                             "from bounds[i] up); flat and inverted tets in none"}}},
                   {"definition", "conformal AMIPS tr(J^T J)/det(J)^(2/3), J the map from the "
                                  "regular tet: 3 is optimal, flat/inverted tets are infinite "
                                  "and excluded"}};

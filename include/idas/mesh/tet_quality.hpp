@@ -149,6 +149,15 @@ inline amips_derivatives tet_amips_derivatives(const vec3& p, const vec3& b, con
     return out;
 }
 
+/// Lower bounds of the bins of `tet_quality_summary::amips_histogram`: quarter steps from
+/// the regular tet's 3 to fTetWild's default stop energy 10, then coarser; bin i holds the
+/// energies in [bound i, bound i + 1), the last bin everything from 1000 up. Flat and
+/// inverted tets (infinite energy) are in no bin.
+inline constexpr std::array<double, 35> amips_histogram_bounds = {
+    3.0, 3.25, 3.5, 3.75, 4.0,  4.25, 4.5,  4.75, 5.0,  5.25,  5.5,   5.75,
+    6.0, 6.25, 6.5, 6.75, 7.0,  7.25, 7.5,  7.75, 8.0,  8.25,  8.5,   8.75,
+    9.0, 9.25, 9.5, 9.75, 10.0, 12.0, 15.0, 20.0, 50.0, 100.0, 1000.0};
+
 struct tet_quality_summary {
     struct range {
         double min = 0, mean = 0, max = 0;
@@ -163,6 +172,9 @@ struct tet_quality_summary {
     /// there are none.
     range amips;
     std::size_t amips_finite = 0;
+    /// The finite energies by bin of amips_histogram_bounds (an energy rounded below 3
+    /// counts in the first).
+    std::array<std::size_t, amips_histogram_bounds.size()> amips_histogram{};
     /// idas::tet_quality over all tets (negative for inverted ones).
     range quality;
 };
@@ -195,6 +207,10 @@ inline tet_quality_summary summarize_tet_quality(std::span<const vec3> vertices,
         }
         const double e = tet_amips(a, b, c, d);
         if (e < inf) {
+            const auto above =
+                std::upper_bound(amips_histogram_bounds.begin(), amips_histogram_bounds.end(), e);
+            ++s.amips_histogram[std::max<std::ptrdiff_t>(0, above - amips_histogram_bounds.begin() -
+                                                                1)];
             ++s.amips_finite, sum_amips += e;
             amips.min = std::min(amips.min, e), amips.max = std::max(amips.max, e);
         }
