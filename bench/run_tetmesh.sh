@@ -9,7 +9,7 @@
 #   bench/run_tetmesh.sh [IDAS_BINARY]   (default build/release/examples/idas)
 #
 # Environment:
-#   INPUTS            files in DATA (default: every surface in data/)
+#   INPUTS            files in DATA (default: every surface in data/; "none": soups only)
 #   SOUPS             seeds of the generated soups (default "1 2"; empty: none)
 #   THREADS           idas's thread counts (default "1 2")
 #   FTETWILD          path to FloatTetwild_bin (built by ../shared/peers/build_ftetwild.sh);
@@ -36,6 +36,7 @@ FTW_EDGE=()
 if [ -n "${EDGE:-}" ]; then IDAS_EDGE=(--edge-length "$EDGE"); FTW_EDGE=(-l "$EDGE"); fi
 
 inputs=()
+[ "${INPUTS:-}" = none ] && INPUTS=" "
 for f in ${INPUTS:-sphere.obj hour_glass.off x.stl bunny.off blub.obj 100071_sf.obj 37989_sf.obj \
     bunny.obj armadillo.obj edge_with_four_triangles.off}; do
     inputs+=("$DATA/$f")

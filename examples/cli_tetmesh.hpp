@@ -5,6 +5,7 @@
 //
 //   idas tetmesh IN OUT.msh|OUT.vtu [--epsilon E] [--edge-length L] [--absolute]
 //                [--sizing VALUE|FILE.msh] [--stop-energy 10] [--max-iterations 80]
+//                [--stall-rounds 12]
 //                [--keep-outside] [--no-simplify] [--boundary SURFACE]
 //                [--stage insertion|optimize] [--msh-version 2.2|4.1] [--threads T]
 //                [--deterministic] [--json] [--ascii]
@@ -58,6 +59,11 @@ CLI::App* add_tetmesh_command(CLI::App& app, tetmesh_arguments& a,
         ->capture_default_str();
     c->add_option("--max-iterations", a.options.max_iterations,
                   "at most this many rounds of split, collapse, swap and smooth")
+        ->check(unsigned_check)
+        ->capture_default_str();
+    c->add_option("--stall-rounds", a.options.stall_rounds,
+                  "stop once this many rounds in a row lowered neither the largest AMIPS nor the "
+                  "number of tets above the stop energy (0: never)")
         ->check(unsigned_check)
         ->capture_default_str();
     c->add_flag("--keep-outside", a.options.keep_outside,
@@ -162,9 +168,10 @@ int run_tetmesh_optimized(const tetmesh_arguments& a, const idas::io::surface& s
     const stopwatch writing;
     write_tetmesh_output(a, v);
     clock.write = writing.seconds();
-    const char* stop = opt.stopped == idas::algorithms::tet_optimization_stop::iteration_limit
-                           ? "iteration_limit"
-                           : "energy_reached";
+    using idas::algorithms::tet_optimization_stop;
+    const char* stop = opt.stopped == tet_optimization_stop::iteration_limit ? "iteration_limit"
+                       : opt.stopped == tet_optimization_stop::stalled       ? "stalled"
+                                                                             : "energy_reached";
     if (a.as_json) {
         json j = insertion_json(a, s, r);
         j["tets"] = v.tets.size();

@@ -822,6 +822,13 @@ expect_rc "tetmesh --no-simplify" 0
 expect_field "tetmesh --no-simplify" "d['inserted_triangles'] == d['simplified_triangles'] == d['triangles'] == 512 and d['amips']['max'] <= 10" True
 run tetmesh "$DATA/hour_glass.off" "$TMP/hg3.msh" --stop-energy 2
 expect_error "tetmesh stop energy below 3" 2 "stop-energy"
+# A stop energy no mesh reaches (3: every tet regular): the run ends when a round improves
+# on neither the best largest energy nor the best count above it, not after 80 rounds.
+run tetmesh "$DATA/hour_glass.off" "$TMP/hg_stall.msh" --stop-energy 3 --stall-rounds 1 --json
+expect_rc "tetmesh --stall-rounds" 0
+expect_field "tetmesh stops when stalled" "d['optimization']['stopped'] == 'stalled' and 2 <= d['optimization']['iterations'] < 80" True
+run tetmesh "$DATA/hour_glass.off" "$TMP/hg_stall.msh" --stall-rounds 1000000
+expect_error "tetmesh --stall-rounds too large" 2 "stall-rounds"
 run tetmesh "$DATA/hour_glass.off" "$TMP/hg.xyz"
 expect_error "tetmesh wrong extension" 2 ".msh or .vtu"
 # VTU output with its cell fields, MSH 4.1 with both tags, and the boundary surface.

@@ -308,6 +308,26 @@ TEST_CASE("tetmesh optimization: a collapse's entry is decided holding its edge 
     CHECK(claim_seeds<op::collapse_edge>(m, t, busy_b) == claim_result::busy);
 }
 
+TEST_CASE("tetmesh optimization: the run stops once its rounds stall") {
+    // Progress is a new best: a lower largest energy, or fewer tets above the stop energy.
+    algorithms::stall_watch w(3);
+    CHECK_FALSE(w.stalled_after(21.8, 5)); // the first round is progress
+    CHECK_FALSE(w.stalled_after(21.8, 5));
+    CHECK_FALSE(w.stalled_after(22.0, 6)); // worse is no progress either
+    CHECK_FALSE(w.stalled_after(21.8, 4)); // fewer tets above: progress
+    CHECK_FALSE(w.stalled_after(21.8, 4));
+    CHECK_FALSE(w.stalled_after(21.8, 4));
+    CHECK(w.stalled_after(21.8, 4)); // three rounds in a row without a new best
+    algorithms::stall_watch lower(2);
+    CHECK_FALSE(lower.stalled_after(30, 9));
+    CHECK_FALSE(lower.stalled_after(30, 9));
+    CHECK_FALSE(lower.stalled_after(29.5, 12)); // a lower largest energy: progress
+    CHECK_FALSE(lower.stalled_after(29.5, 12));
+    CHECK(lower.stalled_after(29.5, 12));
+    algorithms::stall_watch never(0);
+    for (int round = 0; round < 100; ++round) CHECK_FALSE(never.stalled_after(21.8, 1));
+}
+
 TEST_CASE("tetmesh optimization: absurd options are input errors") {
     const auto s = io::read_surface(data_file("sphere.obj"));
     tetmesh::quality_options q;

@@ -13,6 +13,7 @@ tetmeshed tetmesh_volume(const idas::io::surface& s, const std::string& source,
                          const round_observer* observer) {
     idas::tetmesh::quality_options q;
     q.stop_energy = a.stop_energy, q.max_iterations = a.max_iterations;
+    q.stall_rounds = a.stall_rounds;
     q.threads = a.threads, q.keep_outside = a.keep_outside;
     q.sizing = setup.sizing ? &*setup.sizing : nullptr;
     idas::tetmesh::volume_mesh res =

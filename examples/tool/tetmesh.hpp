@@ -26,6 +26,7 @@ struct tetmesh_options {
     std::string sizing;             // a constant or a .msh sizing mesh; empty: none
     double epsilon = 1e-3, edge_length = 1.0 / 20.0, stop_energy = 10;
     unsigned max_iterations = 80;
+    unsigned stall_rounds = 12;
     bool absolute = false, keep_outside = false, no_simplify = false;
     bool deterministic = false; // lock::deterministic_rounds: the same mesh at any thread count
     unsigned threads = 1;
@@ -48,6 +49,7 @@ inline std::optional<double> check_tetmesh_options(const tetmesh_options& a) {
                                 "AMIPS energy of a regular tet)");
     if (a.max_iterations > 100000)
         throw idas::input_error("--max-iterations must be at most 100000");
+    if (a.stall_rounds > 100000) throw idas::input_error("--stall-rounds must be at most 100000");
 
     // A number is a constant field (the edge length itself); anything else a sizing mesh.
     if (a.sizing.empty()) return std::nullopt;

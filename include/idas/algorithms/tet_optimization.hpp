@@ -85,6 +85,12 @@ struct tet_optimization_options {
     double target_length = 0;     ///< absolute target edge length L (> 0), where no field is given
     double stop_energy = 10;      ///< stop when the largest AMIPS is at most this
     unsigned max_iterations = 80; ///< rounds of split, collapse, swap, smooth
+    /// Stop once this many rounds in a row have lowered neither the largest AMIPS nor the
+    /// number of tets above stop_energy below their best so far (0: never). A tet whose
+    /// every neighbour is held (armadillo: a tet of 21.8 with three faces on the surface,
+    /// from round 12) otherwise ran all 80 rounds; by then adaptive sizing has shrunk the
+    /// target around it to its floor (min_scale: five halvings, one every other round).
+    unsigned stall_rounds = 12;
     /// Swaps are tried around tets with AMIPS above this. fTetWild tries every edge; 5
     /// keeps most of what that gains (fewer tets, lower energies) at a fraction of the
     /// tries; bench/RESULTS.md, session 24.
@@ -112,7 +118,28 @@ struct tet_optimization_options {
     unsigned touch_up_rings = 2;
 };
 
-enum class tet_optimization_stop { energy_reached, iteration_limit, already_good };
+enum class tet_optimization_stop { energy_reached, iteration_limit, already_good, stalled };
+
+/// Counts the rounds in a row that improved on neither the best largest energy nor the
+/// best count of tets above the stop energy (tet_optimization_options::stall_rounds).
+class stall_watch {
+public:
+    explicit stall_watch(unsigned limit) noexcept
+        : limit_(limit) {}
+    /// After a round: whether the run has stalled for `limit` rounds in a row.
+    bool stalled_after(double max_energy, std::size_t above) noexcept {
+        const bool progress = max_energy < best_max_ || above < best_above_;
+        best_max_ = std::min(best_max_, max_energy);
+        best_above_ = std::min(best_above_, above);
+        idle_ = progress ? 0 : idle_ + 1;
+        return limit_ > 0 && idle_ >= limit_;
+    }
+
+private:
+    unsigned limit_, idle_ = 0;
+    double best_max_ = std::numeric_limits<double>::infinity();
+    std::size_t best_above_ = std::numeric_limits<std::size_t>::max();
+};
 
 struct tet_optimization_report {
     unsigned iterations = 0;
@@ -1080,6 +1107,7 @@ struct tet_optimization {
             const auto pro = driver<tet_optimization_prologue<Envelope>>::run(
                 m, exec, 1, schedule::no_observer{}, collapse, smooth);
             count(1, pro.phases[0]), count(3, pro.phases[1]);
+            stall_watch stall(o.stall_rounds);
             for (unsigned it = 0; it < o.max_iterations; ++it) {
                 const auto r = driver<tet_optimization_round<Envelope>>::run(
                     m, exec, 1, schedule::no_observer{}, split, collapse, swap, smooth);
@@ -1105,6 +1133,10 @@ struct tet_optimization {
                 observer(it, rep.max_energy);
                 if (rep.max_energy <= o.stop_energy) {
                     rep.stopped = tet_optimization_stop::energy_reached;
+                    break;
+                }
+                if (stall.stalled_after(now.max, now.above)) {
+                    rep.stopped = tet_optimization_stop::stalled;
                     break;
                 }
                 // fTetWild's trigger: the worst tet gained less than 0.5 and the mean

@@ -406,6 +406,7 @@ inline result mesh_insertion(const std::vector<vec3>& vertices,
 struct quality_options {
     double stop_energy = 10;      ///< stop when the largest AMIPS is at most this
     unsigned max_iterations = 80; ///< rounds of split, collapse, swap, smooth
+    unsigned stall_rounds = 12;   ///< see tet_optimization_options::stall_rounds
     unsigned threads = 1;
     bool keep_outside = false; ///< output every tet (with its label), not only the inside
     /// The user's sizing field (absolute lengths, at least 1/1000 of the diagonal: smaller
@@ -735,6 +736,7 @@ volume_mesh mesh_volume(const std::vector<vec3>& vertices, const std::vector<tri
     o.target_length = out.insertion.edge_length;
     o.min_length = min_relative_length * out.insertion.diagonal;
     o.stop_energy = q.stop_energy, o.max_iterations = q.max_iterations;
+    o.stall_rounds = q.stall_rounds;
     exec_options exec;
     exec.threads = std::max(1u, q.threads);
     const auto optimize = [&]<class Lock>(std::type_identity<Lock>) {
