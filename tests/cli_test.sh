@@ -782,6 +782,15 @@ expect_error "tetmesh 1e308 coordinate" 2
 printf 'v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n' >"$TMP/degenerate.obj"
 run tetmesh "$TMP/degenerate.obj" "$TMP/degenerate.msh"
 expect_error "tetmesh only degenerate faces" 2 "degenerate"
+# Seeded soups (bench/make_soups.py) whose triangle pairs share an edge whose line crosses a
+# background tet's edge where a third plane crosses it too: that cut point was made twice,
+# and the cone of its cell made a flat tet ("a cone made a flat tet", exit 1).
+python3 "$(dirname "$0")/../bench/make_soups.py" "$TMP/soups" --seeds 5 >/dev/null
+for soup in open_boxes_5 spheres_5; do
+    run tetmesh "$TMP/soups/$soup.obj" "$TMP/$soup.msh" --stage insertion --no-simplify --json
+    expect_rc "tetmesh $soup insertion" 0
+    expect_field "tetmesh $soup insertion" "d['inserted_triangles'] == d['triangles'] and d['inverted_tets'] == 0" True
+done
 # The full run: insertion and optimization.
 run tetmesh "$DATA/hour_glass.off" "$TMP/hgq.msh" --json
 expect_rc "tetmesh optimize hour_glass" 0

@@ -1232,8 +1232,18 @@ private:
             mpz_mul(x.W.get_mpz_t(), Na.get_mpz_t(), B.W.get_mpz_t());
             mpz_submul(x.W.get_mpz_t(), Nb.get_mpz_t(), A.W.get_mpz_t());
         }
-        const std::uint32_t id = std::uint32_t(pts_.size());
-        pts_.push_back(make_point(std::move(x), std::uint8_t(pts_[a].faces & pts_[b].faces)));
+        point made = make_point(std::move(x), std::uint8_t(pts_[a].faces & pts_[b].faces));
+        // One id per position: where another segment on this line was crossed at the same
+        // point by another plane (two input triangles sharing an edge whose line meets the
+        // tet's edge there), two ids at one position made a facet triangle degenerate, and
+        // its cone a flat tet (a seeded soup of open boxes, bench/make_soups.py).
+        std::uint32_t id = 0;
+        while (id < pts_.size() && !pts_[id].same_position(made)) ++id;
+        if (id < pts_.size()) {
+            pts_[id].faces |= made.faces;
+        } else {
+            pts_.push_back(std::move(made));
+        }
         // Every plane through a and b holds x.
         for (auto& s : signs_)
             if (s.size() > std::max(a, b) && s[a] == 0 && s[b] == 0) {
