@@ -11,7 +11,6 @@
 #include <idas/io/io.hpp>
 #include <idas/mesh/surface_distance.hpp>
 
-#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -20,7 +19,7 @@
 namespace idas::tool {
 
 /// The farthest sample of each surface from the other, in absolute units and relative to
-/// the reference's bounding-box diagonal.
+/// the diagonal of the reference's faces' bounding box.
 struct reference_distance {
     std::string file;
     int samples_per_face = 0;
@@ -42,12 +41,9 @@ inline reference_distance measure_against_reference(const std::vector<vec3>& V,
     if (ref.faces.empty()) throw idas::input_error(file + ": the reference has no faces");
     reference_distance r;
     r.file = file, r.samples_per_face = samples;
-    vec3 lo = ref.vertices.front(), hi = lo;
-    for (const vec3& p : ref.vertices)
-        for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], p[k]), hi[k] = std::max(hi[k], p[k]);
-    r.diagonal = idas::norm(hi - lo);
-    r.surface_to_reference = idas::farthest_sampled_point(
-        V, F, idas::triangle_aabb_tree(ref.vertices, ref.faces), samples);
+    const idas::triangle_aabb_tree reference(ref.vertices, ref.faces);
+    r.diagonal = reference.diagonal();
+    r.surface_to_reference = idas::farthest_sampled_point(V, F, reference, samples);
     if (F.empty()) { // nothing to come near: every reference point is infinitely far
         r.reference_to_surface = {std::numeric_limits<double>::infinity(), ref.vertices.front(), 0};
     } else {
