@@ -11,6 +11,7 @@
 # Environment:
 #   INPUTS            files in DATA (default: every surface in data/; "none": soups only)
 #   SOUPS             seeds of the generated soups (default "1 2"; empty: none)
+#   SOUP_KINDS        which soups of each seed (default "spheres open_boxes shards")
 #   THREADS           idas's thread counts (default "1 2")
 #   FTETWILD          path to FloatTetwild_bin (built by ../shared/peers/build_ftetwild.sh);
 #                     unset: no fTetWild runs
@@ -43,7 +44,9 @@ for f in ${INPUTS:-sphere.obj hour_glass.off x.stl bunny.off blub.obj 100071_sf.
 done
 if [ -n "${SOUPS-1 2}" ]; then
     python3 "$HERE/make_soups.py" "$TMP/soups" --seeds ${SOUPS-1 2} >/dev/null
-    for f in "$TMP"/soups/*.obj; do inputs+=("$f"); done
+    for kind in ${SOUP_KINDS:-spheres open_boxes shards}; do
+        for f in "$TMP"/soups/"$kind"_*.obj; do inputs+=("$f"); done
+    done
 fi
 
 : >"$RESULTS"

@@ -13,7 +13,8 @@
 //             they lower the largest energy of the tets they replace, worst tets first
 //   smooth    each vertex one Newton step on the AMIPS energy of its star (line search),
 //             accepted when the star's sum falls and its maximum does not rise; surface
-//             vertices are projected back onto the input
+//             vertices are projected back onto the input, open-border vertices onto the
+//             borders
 //
 //   I  every tet positively oriented (exact orient3d; on the exact coordinates where a
 //      vertex is still rational); every tracked face inside the input's envelope
@@ -30,9 +31,10 @@
 //
 // What must stay: the tracked surface (a tracked face is never swapped away, a surface
 // vertex moves or vanishes only within the envelope, and into another surface vertex
-// only along a tracked edge), its border and intersection curves
-// (feature vertices never move, and vanish only where the curve stays: into a vertex all
-// but on them, or as an inner point of a straight piece of the curve), and the bounding
+// only along a tracked edge; where surfaces cross, too, as in fTetWild), its open borders
+// (feature vertices slide along them and vanish only into a neighbour along the border,
+// the border's new edges within border_epsilon of the borders at the start, as in
+// fTetWild's boundary envelope; where borders meet or end, they stay), and the bounding
 // box (a vertex on a box plane stays on it: splits keep the coordinate, collapses need the
 // survivor on every plane of the removed vertex, smoothing keeps it).
 #pragma once
@@ -70,8 +72,8 @@ namespace idas::algorithms {
 /// Bits of a vertex's kind during tet optimization.
 namespace tet_vertex {
 inline constexpr std::uint8_t surface = 1;  ///< on a tracked face
-inline constexpr std::uint8_t feature = 2;  ///< on a tracked edge without exactly two tracked
-                                            ///< faces (open border, intersection): stays put
+inline constexpr std::uint8_t feature = 2;  ///< on a tracked edge in an odd number of tracked
+                                            ///< faces (an open border): moves along it
 inline constexpr std::uint8_t rational = 4; ///< exact position only in the rational table
 } // namespace tet_vertex
 
@@ -116,6 +118,13 @@ struct tet_optimization_options {
     /// start everywhere: started near the bad tets only, they left x.stl 5-11% more tets
     /// (bench/RESULTS.md, "Session 45").
     unsigned touch_up_rings = 2;
+    /// A vertex inside an open border (a curve of edges in an odd number of tracked faces)
+    /// may vanish into its neighbour along the border where the border's new edge stays
+    /// within this distance of the borders the insertion left (fTetWild's boundary
+    /// envelope, at its epsilon); 0: only where the border stays where it was. Kept where
+    /// it was, the insertion's short border edges and the slivers at them could never go:
+    /// a soup whose triangles share no vertex is all border.
+    double border_epsilon = 0;
 };
 
 enum class tet_optimization_stop { energy_reached, iteration_limit, already_good, stalled };
@@ -238,7 +247,11 @@ struct tet_optimization_state {
     /// while phases run.
     const std::unordered_map<index_t, rational_point>* exact = nullptr;
     const triangle_aabb_tree* input = nullptr; ///< the input surface, for projection
-    vec3 box_lo{}, box_hi{};                   ///< the background's bounding box
+    /// The open borders at the start, one degenerate triangle (p, q, q) per edge, and how
+    /// far a border edge may stray from them (tet_optimization_options::border_epsilon).
+    triangle_aabb_tree border;
+    double border_epsilon = 0;
+    vec3 box_lo{}, box_hi{}; ///< the background's bounding box
     /// Remembered containment verdicts (see containment_memo).
     containment_memo* verdicts = nullptr;
     /// Where swaps and smoothing start: the vertices flagged here (a touch-up's), or every
@@ -309,15 +322,34 @@ void retrack(Mesh& m, const tet_optimization_state& s, const op_result<tet_tuple
     }
 }
 
-/// Whether feature vertex b is an inner point of a straight piece of its feature curve
-/// with a as one neighbour on it: b has exactly two feature neighbours along the tracked
-/// faces (edges in other than two tracked faces, the same number of faces each), a and c,
-/// and lies on segment ac up to rounding. Splits put such vertices on the input's borders
-/// and intersection lines; removing one leaves the curve where it was, and without it the
-/// tracked sliver faces they make along a straight curve could never go.
+/// Whether segment pq lies within r of the union of `border`'s segments. The distance to
+/// one segment is convex along pq, so a piece whose two ends are within r of the same
+/// segment lies within r of it; a piece that no one segment holds is halved, down to 1/64
+/// of pq, then refused. Distances in doubles: what the output promises (the surface within
+/// epsilon) the exact envelope checks; this keeps the open borders where they were.
+inline bool near_border(const triangle_aabb_tree& border, double r, const vec3& p, const vec3& q,
+                        int halvings = 6) {
+    const double r2 = r * r;
+    bool near_p = false, held = false;
+    border.for_each_face_within(p, r2, [&](index_t f, double) {
+        near_p = true;
+        const auto t = border.triangle(f);
+        held = squared_norm(q - closest_point_on_triangle(q, t[0], t[1], t[2])) <= r2;
+        return !held;
+    });
+    if (held) return true;
+    if (!near_p || halvings == 0 || !border.within_squared_distance(q, r2)) return false;
+    const vec3 mid = (p + q) * 0.5;
+    return near_border(border, r, p, mid, halvings - 1) &&
+           near_border(border, r, mid, q, halvings - 1);
+}
+
+/// The two neighbours of feature vertex b along its border: over edges in an odd number of
+/// tracked faces (the same number each); nothing where borders meet or end at b (other
+/// than two such neighbours), which stays.
 template <class Mesh>
-bool straight_on_feature_curve(const Mesh& m, const tet_optimization_state& s, index_t a,
-                               index_t b) {
+std::optional<std::pair<index_t, index_t>>
+border_neighbours(const Mesh& m, const tet_optimization_state& s, index_t b) {
     tracked_faces faces;
     for (index_t g : m.vertex_tets(b)) gather_tracked(m, s, g, faces);
     boost::container::small_vector<std::pair<index_t, int>, 24> around; // neighbour, faces
@@ -336,15 +368,26 @@ bool straight_on_feature_curve(const Mesh& m, const tet_optimization_state& s, i
     index_t ends[2] = {invalid_index, invalid_index};
     int faces_at[2] = {0, 0}, found = 0;
     for (const auto& [x, n] : around) {
-        if (n == 2) continue;
-        if (found == 2) return false;
+        if (n % 2 == 0) continue; // inside the surface, or across an intersection
+        if (found == 2) return std::nullopt;
         ends[found] = x, faces_at[found] = n, ++found;
     }
-    if (found != 2 || faces_at[0] != faces_at[1] || (ends[0] != a && ends[1] != a)) return false;
-    const index_t c = ends[0] == a ? ends[1] : ends[0];
-    const vec3 pa = m.position(a), ac = m.position(c) - pa, ab = m.position(b) - pa;
+    if (found != 2 || faces_at[0] != faces_at[1]) return std::nullopt;
+    return std::pair{ends[0], ends[1]};
+}
+
+/// Whether feature vertex b may vanish into a, one of its two border neighbours, a and c:
+/// where b lies on segment ac up to rounding (the border stays where it was), or where
+/// segment ac stays within s.border_epsilon of the borders the run started with.
+template <class Mesh>
+bool may_leave_border(const Mesh& m, const tet_optimization_state& s, index_t a, index_t b) {
+    const auto ends = border_neighbours(m, s, b);
+    if (!ends || (ends->first != a && ends->second != a)) return false;
+    const index_t c = ends->first == a ? ends->second : ends->first;
+    const vec3 pa = m.position(a), pc = m.position(c), ac = pc - pa, ab = m.position(b) - pa;
     const double along = dot(ab, ac), ac2 = dot(ac, ac);
-    return along > 0 && along < ac2 && squared_norm(cross(ab, ac)) <= 1e-18 * ac2 * ac2;
+    if (along > 0 && along < ac2 && squared_norm(cross(ab, ac)) <= 1e-18 * ac2 * ac2) return true;
+    return s.border_epsilon > 0 && near_border(s.border, s.border_epsilon, pa, pc);
 }
 
 /// Whether edge ab is an edge of a tracked face.
@@ -547,7 +590,7 @@ struct tet_split_spec : tet_optimization_invariants<Envelope> {
         }
         for (const auto& k : c.tracked) faces_on_edge += detail::has(k, a) && detail::has(k, b);
         if (faces_on_edge > 0) c.kind |= tet_vertex::surface;
-        if (faces_on_edge > 0 && faces_on_edge != 2) c.kind |= tet_vertex::feature;
+        if (faces_on_edge % 2 == 1) c.kind |= tet_vertex::feature;
         const auto sc = m.attribute(s.scale);
         c.scale = 0.5 * (sc[a] + sc[b]);
         // The midpoint's length, linear along the edge until the round's end re-reads it.
@@ -668,7 +711,7 @@ struct tet_collapse_spec : tet_optimization_invariants<Envelope> {
     }
 
     /// The cheap refusals first, before the operation's link condition: b must be allowed
-    /// to vanish into a (a feature vertex only where its curve stays, a on every box
+    /// to vanish into a (a feature vertex only along its border, a on every box
     /// plane b is on, two surface vertices only along a tracked edge), and the largest
     /// energy of the tets of b's star may not rise above the larger of its old value and
     /// collapse_up_to (fTetWild's rule alone, never rise, left 1.4x its tets on sphere).
@@ -681,12 +724,12 @@ struct tet_collapse_spec : tet_optimization_invariants<Envelope> {
         const auto [a, b] = m.edge_vertices(t);
         if (!wanted(m, a, b)) return false;
         const auto kind = m.attribute(s.kind);
-        // A feature vertex vanishes only where the curve stays: b all but on a, or an inner
-        // point of a straight piece of the curve.
+        // A feature vertex vanishes only where the border stays: b all but on a, or along
+        // the border within border_epsilon.
         if ((kind[b] & tet_vertex::feature) &&
             !(squared_norm(m.position(a) - m.position(b)) <=
               1e-12 * detail::target_squared(m, s, a, b)) &&
-            !detail::straight_on_feature_curve(m, s, a, b))
+            !detail::may_leave_border(m, s, a, b))
             return false;
         const std::uint8_t pb = s.box_planes(m.position(b));
         if ((pb & s.box_planes(m.position(a))) != pb) return false;
@@ -892,7 +935,7 @@ struct tet_smooth_spec : tet_optimization_invariants<Envelope> {
 
     template <class Mesh>
     bool movable(const Mesh& m, index_t v) const {
-        if (m.attribute(s.kind)[v] & tet_vertex::feature) return false;
+        if ((m.attribute(s.kind)[v] & tet_vertex::feature) && !(s.border_epsilon > 0)) return false;
         const std::uint8_t planes = s.box_planes(m.position(v));
         // A vertex on two box planes (a box edge) or three (a corner) stays.
         return std::popcount(planes) < 2;
@@ -935,6 +978,14 @@ struct tet_smooth_spec : tet_optimization_invariants<Envelope> {
         star st;
         gather(m, v, st);
         const vec3 p = m.position(v);
+        // A vertex inside an open border slides along it, as in fTetWild: projected onto the
+        // borders, its two border edges within border_epsilon of them.
+        const std::uint8_t kind = m.attribute(s.kind)[v];
+        std::optional<std::pair<index_t, index_t>> ends;
+        if (kind & tet_vertex::feature) {
+            ends = detail::border_neighbours(m, s, v);
+            if (!ends) return std::nullopt;
+        }
         // Newton direction of the star's summed energy.
         vec3 grad{};
         std::array<double, 9> H{};
@@ -956,15 +1007,22 @@ struct tet_smooth_spec : tet_optimization_invariants<Envelope> {
             }
         vec3 dir = newton_direction(H, grad);
         if (!(squared_norm(dir) > 0)) return std::nullopt;
-        const bool surface = m.attribute(s.kind)[v] & tet_vertex::surface;
         for (unsigned k = 0; k < line_search_steps; ++k, dir *= 0.5) {
             vec3 q = p + dir;
-            if (surface && s.input) q = s.input->closest_point(q).point;
+            if (ends)
+                q = s.border.closest_point(q).point;
+            else if ((kind & tet_vertex::surface) && s.input)
+                q = s.input->closest_point(q).point;
             for (int a = 0; a < 3; ++a)
                 if (planes >> (2 * a) & 3u) q[a] = p[a];
             if (q == p) continue;
             const star_energy e = energy(st, q);
-            if (e.sum < now.sum * (1 - 1e-10) && e.max <= now.max) return q;
+            if (!(e.sum < now.sum * (1 - 1e-10) && e.max <= now.max)) continue;
+            if (ends &&
+                !(detail::near_border(s.border, s.border_epsilon, m.position(ends->first), q) &&
+                  detail::near_border(s.border, s.border_epsilon, q, m.position(ends->second))))
+                continue;
+            return q;
         }
         return std::nullopt;
     }
@@ -1083,6 +1141,7 @@ struct tet_optimization {
         const temporary_attribute length(
             m, m.template add_vertex_attribute<double>("tet_length", 0.0));
         s.kind = kind.handle, s.scale = scale.handle, s.length = length.handle;
+        s.border_epsilon = o.border_epsilon;
         mark_kinds(m, s, exact);
         read_sizing(m, s, sizing, o.min_length);
 
@@ -1266,15 +1325,27 @@ private:
                 }
             }
         }
+        // An edge in an odd number of tracked faces is on an open border (one face) or
+        // where a border meets another surface (three); an even number above two is where
+        // surfaces cross, whose vertices are surface vertices, as in fTetWild: frozen, the
+        // insertion's short edges along the crossing and the slivers on them stayed (a soup
+        // of overlapping spheres kept 500 tets above 10 and ten times fTetWild's tets).
         std::sort(edges.begin(), edges.end());
+        std::vector<vec3> ends;
+        std::vector<tri_indices> segments;
         for (std::size_t i = 0; i < edges.size();) {
             std::size_t j = i + 1;
             while (j < edges.size() && edges[j] == edges[i]) ++j;
-            if (j - i != 2)
-                kind.raw(edges[i].first) |= tet_vertex::feature,
-                    kind.raw(edges[i].second) |= tet_vertex::feature;
+            if ((j - i) % 2 == 1) {
+                const auto [a, b] = edges[i];
+                kind.raw(a) |= tet_vertex::feature, kind.raw(b) |= tet_vertex::feature;
+                const index_t at = index_t(ends.size());
+                ends.push_back(m.position(a)), ends.push_back(m.position(b));
+                segments.push_back({at, at + 1, at + 1});
+            }
             i = j;
         }
+        s.border = triangle_aabb_tree(ends, segments);
         for (const auto& [v, q] : exact)
             if (v < m.vertex_slots()) kind.raw(v) |= tet_vertex::rational;
     }

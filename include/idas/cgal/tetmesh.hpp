@@ -737,6 +737,7 @@ volume_mesh mesh_volume(const std::vector<vec3>& vertices, const std::vector<tri
     o.min_length = min_relative_length * out.insertion.diagonal;
     o.stop_energy = q.stop_energy, o.max_iterations = q.max_iterations;
     o.stall_rounds = q.stall_rounds;
+    o.border_epsilon = out.insertion.epsilon; // fTetWild's boundary envelope
     exec_options exec;
     exec.threads = std::max(1u, q.threads);
     const auto optimize = [&]<class Lock>(std::type_identity<Lock>) {
