@@ -172,6 +172,20 @@ int run_tetmesh_optimized(const tetmesh_arguments& a, const idas::io::surface& s
     const char* stop = opt.stopped == tet_optimization_stop::iteration_limit ? "iteration_limit"
                        : opt.stopped == tet_optimization_stop::stalled       ? "stalled"
                                                                              : "energy_reached";
+    // A run that missed what it promises says so on stderr, whatever the output's format:
+    // the file is written (usable, and what the report describes), but not silently.
+    if (qr.quality.amips.max > a.options.stop_energy)
+        std::fprintf(
+            stderr,
+            "idas: warning: %s: the largest AMIPS energy %.4g is above the stop energy %.4g "
+            "(stopped: %s)\n",
+            a.out.c_str(), qr.quality.amips.max, a.options.stop_energy, stop);
+    if (qr.flat_or_inverted > 0)
+        std::fprintf(stderr,
+                     "idas: warning: %s: %zu tets are flat or inverted as written (%zu vertices "
+                     "could not be rounded to doubles)\n",
+                     a.out.c_str(), std::size_t(qr.flat_or_inverted),
+                     std::size_t(opt.rational_left));
     if (a.as_json) {
         json j = insertion_json(a, s, r);
         j["tets"] = v.tets.size();

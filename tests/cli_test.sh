@@ -798,6 +798,13 @@ expect_field "tetmesh optimize" "d['optimization']['stopped']" energy_reached
 expect_field "tetmesh optimize" "d['amips']['max'] <= 10 and d['flat_or_inverted_tets'] == 0" True
 expect_field "tetmesh optimize" "d['boundary']['closed_2_manifold']" True
 expect_field "tetmesh optimize simplifies" "d['inserted_triangles'] == d['simplified_triangles'] < d['triangles']" True
+if [ -s "$TMP/err" ]; then fail "tetmesh optimize: a run that met its stop energy wrote to stderr: $(head -c 300 "$TMP/err")"; else ok; fi
+# A run that stops above its stop energy writes its output and says so on stderr.
+run tetmesh "$DATA/hour_glass.off" "$TMP/hg_short.msh" --stop-energy 3 --max-iterations 1 --stall-rounds 0 --json
+expect_rc "tetmesh stopped early" 0
+expect_field "tetmesh stopped early" "d['optimization']['stopped']" iteration_limit
+if grep -q "^idas: warning: .*hg_short.msh: the largest AMIPS energy .* is above the stop energy 3 (stopped: iteration_limit)" "$TMP/err"; then ok; else fail "tetmesh stopped early: no warning on stderr: $(head -c 300 "$TMP/err")"; fi
+if [ -s "$TMP/hg_short.msh" ]; then ok; else fail "tetmesh stopped early: no output"; fi
 run info "$TMP/hgq.msh" --json
 expect_rc "tetmesh optimized output reads back" 0
 expect_field "info's AMIPS histogram counts every finite tet" "sum(d['amips']['histogram']['counts']) == d['amips']['finite_tets'] == d['tets']" True
