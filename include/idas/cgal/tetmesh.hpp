@@ -623,12 +623,20 @@ inline bool group_is_disk(index_t v, std::span<const index_t> star,
 ///    fill every gap but the largest (the outside groups of its star): a group that wraps
 ///    around a gap closes it;
 ///  * where neither changes anything, the bad vertices' whole stars are made inside (each
-///    such step adds a tet, and the whole box is a closed manifold, so the rounds end).
+///    such step adds a tet, and the whole box is a closed manifold, so the rounds end);
+///  * a bad vertex whose star is all inside is next to a copy: a neighbour's split cut
+///    through its star and left it a boundary that is not a disk (a soup of shards). The
+///    copies of its star's vertices go back into their originals, which are not parted
+///    again (the filling steps close them).
 /// Returns how many tets were made inside.
 inline std::size_t close_boundary(std::vector<vec3>& V, std::vector<tet_indices>& T,
                                   std::vector<std::uint8_t>& in, bool may_split_vertices) {
     std::size_t added = 0;
     std::vector<int> group;
+    const std::size_t originals = V.size();
+    std::vector<index_t> copied_from; // of each copy, appended to V
+    auto original = [&](index_t x) { return x < originals ? x : copied_from[x - originals]; };
+    std::vector<std::uint8_t> merged(originals, 0); // copies went back: parted no more
     for (;;) {
         const inside_boundary b = boundary_of(V.size(), T, in);
         std::vector<index_t> bad = b.bad_edge_vertices;
@@ -644,6 +652,7 @@ inline std::size_t close_boundary(std::vector<vec3>& V, std::vector<tet_indices>
         bool changed = false;
         if (may_split_vertices)
             for (index_t v : bad) {
+                if (merged[original(v)]) continue;
                 const auto st = star_of(v);
                 const int groups = star_groups(v, st, T, is_in, group);
                 if (groups < 2) continue;
@@ -653,6 +662,7 @@ inline std::size_t close_boundary(std::vector<vec3>& V, std::vector<tet_indices>
                 for (int g = 1; g < groups; ++g) {
                     const index_t copy = index_t(V.size());
                     V.push_back(V[v]);
+                    copied_from.push_back(original(v));
                     for (std::size_t k = 0; k < st.size(); ++k)
                         if (group[k] == g)
                             for (index_t& x : T[st[k]])
@@ -677,6 +687,15 @@ inline std::size_t close_boundary(std::vector<vec3>& V, std::vector<tet_indices>
         for (index_t v : bad)
             for (index_t t : star_of(v))
                 if (!in[t]) in[t] = 1, ++added, changed = true;
+        if (changed) continue;
+        // Every bad vertex's star is inside: a copy next to it cut its star. The copies of
+        // its star's vertices go back (left unreferenced in V).
+        for (index_t v : bad)
+            for (index_t t : star_of(v))
+                for (index_t x : T[t]) merged[original(x)] = 1;
+        for (auto& t : T)
+            for (index_t& x : t)
+                if (x >= originals && merged[original(x)]) x = original(x), changed = true;
         if (!changed) return added; // cannot happen; no endless loop either way
     }
 }
