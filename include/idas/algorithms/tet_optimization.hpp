@@ -119,11 +119,12 @@ struct tet_optimization_options {
     /// (bench/RESULTS.md, "Session 45").
     unsigned touch_up_rings = 2;
     /// A vertex inside an open border (a curve of edges in an odd number of tracked faces)
-    /// may vanish into its neighbour along the border where the border's new edge stays
-    /// within this distance of the borders the insertion left (fTetWild's boundary
-    /// envelope, at its epsilon); 0: only where the border stays where it was. Kept where
-    /// it was, the insertion's short border edges and the slivers at them could never go:
-    /// a soup whose triangles share no vertex is all border.
+    /// slides along it and may vanish into its neighbour along it where the border's new
+    /// edges stay within this distance of the borders the insertion left (fTetWild's
+    /// boundary envelope, at its epsilon); 0: it never moves, and vanishes only where the
+    /// border stays where it was. Kept where it was, the insertion's short border edges and
+    /// the slivers at them could never go: a soup whose triangles share no vertex is all
+    /// border.
     double border_epsilon = 0;
 };
 
@@ -1345,7 +1346,7 @@ private:
             }
             i = j;
         }
-        s.border = triangle_aabb_tree(ends, segments);
+        if (s.border_epsilon > 0) s.border = triangle_aabb_tree(ends, segments); // else unused
         for (const auto& [v, q] : exact)
             if (v < m.vertex_slots()) kind.raw(v) |= tet_vertex::rational;
     }
