@@ -457,6 +457,29 @@ double target_squared(const Mesh& m, const tet_optimization_state& s, index_t a,
     return l * l;
 }
 
+/// x moved by `steps` ulps (towards +infinity where positive).
+inline double ulps_from(double x, int steps) noexcept {
+    for (; steps > 0; --steps) x = std::nextafter(x, std::numeric_limits<double>::infinity());
+    for (; steps < 0; ++steps) x = std::nextafter(x, -std::numeric_limits<double>::infinity());
+    return x;
+}
+
+/// The offsets, in ulps per coordinate, that rounding tries beyond a rational vertex's
+/// nearest doubles: every offset of at most three ulps a coordinate, nearest first.
+inline constexpr auto ulp_steps = [] {
+    constexpr int reach = 3, side = 2 * reach + 1;
+    std::array<std::array<int, 3>, side * side * side - 1> steps{};
+    std::size_t n = 0;
+    for (int x = -reach; x <= reach; ++x)
+        for (int y = -reach; y <= reach; ++y)
+            for (int z = -reach; z <= reach; ++z)
+                if (x || y || z) steps[n++] = {x, y, z};
+    std::ranges::sort(steps, {}, [](const std::array<int, 3>& d) {
+        return std::array{d[0] * d[0] + d[1] * d[1] + d[2] * d[2], d[0], d[1], d[2]};
+    });
+    return steps;
+}();
+
 /// Exact orient3d of tet tv on the exact positions: rational ones where a vertex's kind
 /// says so, except `at_double`, taken at its double position (a rounding candidate).
 template <class Mesh>
@@ -591,7 +614,14 @@ struct tet_split_spec : tet_optimization_invariants<Envelope> {
         }
         for (const auto& k : c.tracked) faces_on_edge += detail::has(k, a) && detail::has(k, b);
         if (faces_on_edge > 0) c.kind |= tet_vertex::surface;
-        if (faces_on_edge % 2 == 1) c.kind |= tet_vertex::feature;
+        // A border's midpoint stays on the border. An odd edge between vertices that are not
+        // both on a border is no border: a collapse merged two tracked faces across a flat
+        // tet there (two sheets of the surface became one), and feature vertices spread
+        // along it by splits would be frozen where nothing needs them (open_boxes_2 of
+        // bench/make_soups.py stalled on slivers between such vertices at AMIPS 1e9).
+        const auto kind = m.attribute(s.kind);
+        if (faces_on_edge % 2 == 1 && (kind[a] & kind[b] & tet_vertex::feature))
+            c.kind |= tet_vertex::feature;
         const auto sc = m.attribute(s.scale);
         c.scale = 0.5 * (sc[a] + sc[b]);
         // The midpoint's length, linear along the edge until the round's end re-reads it.
@@ -1172,7 +1202,7 @@ struct tet_optimization {
                 const auto r = driver<tet_optimization_round<Envelope>>::run(
                     m, exec, 1, schedule::no_observer{}, split, collapse, swap, smooth);
                 for (std::size_t k = 0; k < 4; ++k) count(k, r.phases[k]);
-                rep.rounded += round_rational(m, s);
+                rep.rounded += round_rational(m, s, envelope);
                 read_sizing(m, s, sizing, o.min_length);
                 const energy_summary before = now;
                 now = energy_stats(m, exec.threads, o.stop_energy);
@@ -1368,18 +1398,54 @@ private:
         }
     }
 
-    /// Rational vertices whose nearest doubles keep every tet of their star positive
-    /// become double vertices. Returns how many.
-    static std::size_t round_rational(Mesh& m, tet_optimization_state& s) {
+    /// Rational vertices become double vertices where a double point keeps every tet of
+    /// their star positive and their tracked faces inside the envelope: their nearest
+    /// doubles, or else a point a few ulps from them. Returns how many.
+    ///
+    /// Why not only the nearest: two cut points of the insertion can round to the same
+    /// doubles, and then the tets that hold both are flat at either one's nearest doubles
+    /// while both stay rational, their stars too flat in doubles for smoothing to move
+    /// them. The exact point lies inside the cone of positions that keep its star
+    /// positive, and so do doubles a few ulps from it unless the cone is thinner than that.
+    static std::size_t round_rational(Mesh& m, tet_optimization_state& s,
+                                      const Envelope& envelope) {
         auto kind = m.attribute(s.kind);
+        auto p = m.positions();
         std::size_t rounded = 0;
+        const auto positive = [&](index_t v) {
+            const auto star = m.vertex_tets(v);
+            return std::all_of(star.begin(), star.end(), [&](index_t g) {
+                return detail::exact_orient3d(m, s, m.tet_vertices(g), v) > 0;
+            });
+        };
+        const auto tracked_inside = [&](index_t v) {
+            const auto tracked = m.attribute(s.tracked);
+            for (index_t g : m.vertex_tets(v)) {
+                const auto& tv = m.tet_vertices(g);
+                const std::uint8_t own = tet_local::index_of(tv, v);
+                for (std::uint8_t lf = 0; lf < 4; ++lf) {
+                    if (!(tracked[g] >> lf & 1u) || lf == own) continue;
+                    const auto f = tet_local::face_vertices[lf];
+                    if (!s.verdicts->contains(envelope, p[tv[f[0]]], p[tv[f[1]]], p[tv[f[2]]]))
+                        return false;
+                }
+            }
+            return true;
+        };
         for (const auto& [v, q] : *s.exact) {
             if (v >= m.vertex_slots() || !(kind[v] & tet_vertex::rational)) continue;
-            const auto star = m.vertex_tets(v);
-            if (std::all_of(star.begin(), star.end(), [&](index_t g) {
-                    return detail::exact_orient3d(m, s, m.tet_vertices(g), v) > 0;
-                }))
+            bool found = positive(v);
+            const vec3 nearest = p[v];
+            for (std::size_t k = 0; !found && k < detail::ulp_steps.size(); ++k) {
+                const auto& d = detail::ulp_steps[k];
+                p.raw(v) = {detail::ulps_from(nearest.x, d[0]), detail::ulps_from(nearest.y, d[1]),
+                            detail::ulps_from(nearest.z, d[2])};
+                found = positive(v) && tracked_inside(v);
+            }
+            if (found)
                 kind.raw(v) &= std::uint8_t(~tet_vertex::rational), ++rounded;
+            else
+                p.raw(v) = nearest;
         }
         return rounded;
     }
