@@ -1402,18 +1402,12 @@ private:
             });
         };
         const auto tracked_inside = [&](index_t v) {
-            const auto tracked = m.attribute(s.tracked);
-            for (index_t g : m.vertex_tets(v)) {
-                const auto& tv = m.tet_vertices(g);
-                const std::uint8_t own = tet_local::index_of(tv, v);
-                for (std::uint8_t lf = 0; lf < 4; ++lf) {
-                    if (!(tracked[g] >> lf & 1u) || lf == own) continue;
-                    const auto f = tet_local::face_vertices[lf];
-                    if (!s.verdicts->contains(envelope, p[tv[f[0]]], p[tv[f[1]]], p[tv[f[2]]]))
-                        return false;
-                }
-            }
-            return true;
+            detail::tracked_faces faces;
+            for (index_t g : m.vertex_tets(v)) detail::gather_tracked(m, s, g, faces);
+            return std::ranges::all_of(faces, [&](const tri_indices& k) {
+                return !detail::has(k, v) ||
+                       s.verdicts->contains(envelope, p[k[0]], p[k[1]], p[k[2]]);
+            });
         };
         for (const auto& [v, q] : *s.exact) {
             if (v >= m.vertex_slots() || !(kind[v] & tet_vertex::rational)) continue;
