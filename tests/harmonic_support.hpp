@@ -19,8 +19,27 @@ Mesh delaunay_mesh(const std::vector<vec3>& points) {
     return Mesh(dt.vertices, dt.tets);
 }
 
-/// Complete-mode flips with a tiny pool for new tets, so 2-3 swaps run out of slots and
-/// go to the serial pass.
+/// n^3 separate flat bipyramids: triangle abc with apexes 0.2 above and below, two tets
+/// whose 2-3 swap lowers the energy by half. A Delaunay mesh wants no 2-3 swap at all (its
+/// flips are 3-2 and 4-4), so this is the mesh that makes a flip spec grow.
+template <class Mesh = tet_mesh<>>
+Mesh flat_bipyramids(int n) {
+    std::vector<vec3> points;
+    std::vector<tet_indices> tets;
+    for (int i = 0; i < n * n * n; ++i) {
+        const vec3 o{3.0 * (i % n), 3.0 * (i / n % n), 3.0 * (i / n / n)};
+        const auto v = index_t(points.size());
+        for (const vec3 p : {vec3{1, 0, 0}, vec3{-0.5, 0.866, 0}, vec3{-0.5, -0.866, 0},
+                             vec3{0, 0, 0.2}, vec3{0, 0, -0.2}})
+            points.push_back(o + p);
+        tets.push_back({v, v + 1, v + 2, v + 3});
+        tets.push_back({v, v + 2, v + 1, v + 4});
+    }
+    return Mesh(points, tets);
+}
+
+/// Complete-mode flips with a tiny pool for new tets (two a worker on four threads), so
+/// 2-3 swaps run out of slots and go to the serial pass.
 struct small_pool : algorithms::harmonic_flip_spec<algorithms::harmonic_mode::complete> {
     template <class Mesh>
     std::pair<index_t, index_t> parallel_growth(const Mesh&) const {

@@ -34,15 +34,17 @@ TEST_CASE_TEMPLATE("harmonic triangulation in parallel: 8 threads, both modes", 
 }
 
 TEST_CASE("harmonic triangulation in parallel: 2-3 growth beyond the slot pools") {
-    auto m = test::delaunay_mesh(io::gaussian_points(5000, 5));
+    auto m = test::flat_bipyramids(10);
     const auto before = harmonic_statistics(m);
     test::small_pool spec;
     const auto r = executor<test::small_pool, tet_mesh<>, lock::vertex_try_lock, queue::fifo>::run(
         m, spec, {.threads = 4});
-    CHECK(r.succeeded > 0);
-    // Some 2-3 swaps did not fit their worker's pool: set aside, then done on merged
-    // parts (another worker's pool) or in the serial pass.
-    CHECK(r.deferred_to_serial + r.retaken > 0);
+    // Every bipyramid was swapped once; at most the pools' 8 slots served the workers,
+    // the other 2-3 swaps were set aside (then done on merged parts or in the serial pass).
+    const auto pairs = before.tets / 2;
+    CHECK(r.succeeded == pairs);
+    CHECK(m.n_tets() == 3 * pairs);
+    CHECK(r.deferred_to_serial + r.retaken >= pairs - 8);
     // No stopping criterion, so the workers kept no live counts: the report sums them.
     CHECK(r.faces == std::int64_t(m.n_tets()));
     CHECK(r.vertices == std::int64_t(m.n_vertices()));
