@@ -478,6 +478,72 @@ TEST_CASE("rational: does rounding keep the orientation?") {
     CHECK(idas::rounding_preserves_orient3d(a, b, c, d_far));
 }
 
+TEST_CASE("rational: the nearest doubles decide the orientation where rounding cannot change it") {
+    // Rational points at five scales, with the tet's last point placed exactly on the
+    // plane of the others, or off it by a relative 2^-80 (rounding decides nothing there),
+    // 2^-30 or anywhere. Where orient3d_within gives a sign it must be the exact one;
+    // exactly coplanar points must get 0; well-separated ones must be decided.
+    std::mt19937_64 rng(53);
+    std::uniform_int_distribution<long> num(-1000003, 1000003), den(1, 999983);
+    std::uniform_int_distribution<int> which(0, 3);
+    const auto random_q = [&] {
+        mpq_class q(num(rng), den(rng));
+        q.canonicalize();
+        return q;
+    };
+    int decided_far = 0, far = 0;
+    // Scales 2^-600 and 2^600 underflow or overflow the determinant's doubles (the exact
+    // test decides there); within 2^-150 to 2^150 the doubles must decide far points.
+    for (const int exponent : {-600, -150, 0, 150, 600}) {
+        const mpq_class scale = exponent < 0 ? mpq_class(mpz_class(1), mpz_class(1) << -exponent)
+                                             : mpq_class(mpz_class(1) << exponent);
+        for (int rep = 0; rep < 1500; ++rep) {
+            // Points before rational_from are doubles (radius 0), as in a mesh.
+            const int rational_from = which(rng);
+            std::array<idas::rational_point, 4> p;
+            for (int i = 0; i < 4; ++i) {
+                p[i] = {random_q() * scale, random_q() * scale, random_q() * scale};
+                if (i < rational_from) p[i] = idas::to_rational(idas::to_vec3(p[i]));
+            }
+            const int placement = rep % 4; // 0 on the plane, 1 and 2 just off it, 3 anywhere
+            if (placement < 3) {
+                const mpq_class s = random_q(), t = random_q();
+                for (int k = 0; k < 3; ++k)
+                    p[3][k] = p[0][k] + s * (p[1][k] - p[0][k]) + t * (p[2][k] - p[0][k]);
+                if (placement > 0) {
+                    const int shift = placement == 1 ? 80 : 30;
+                    p[3].z += scale / mpq_class(mpz_class(1) << shift);
+                }
+            }
+            std::array<vec3, 4> nearest;
+            std::array<double, 4> radius{};
+            for (int i = 0; i < 4; ++i) {
+                nearest[i] = idas::to_vec3(p[i]);
+                if (i < rational_from) continue;
+                radius[i] = idas::rounding_radius(nearest[i]);
+                for (int k = 0; k < 3; ++k) // the radius holds the rounding error
+                    REQUIRE(abs(p[i][k] - idas::to_rational(nearest[i][k])) <=
+                            idas::to_rational(radius[i]));
+            }
+            const int exact = idas::orient3d(p[0], p[1], p[2], p[3]);
+            const int within = idas::orient3d_within(nearest[0], nearest[1], nearest[2], nearest[3],
+                                                     radius[0], radius[1], radius[2], radius[3]);
+            CAPTURE(placement);
+            if (within != 0) REQUIRE(within == exact);
+            if (placement == 0) CHECK(within == 0);
+            if (placement == 3 && std::abs(exponent) <= 150) ++far, decided_far += within != 0;
+        }
+    }
+    CHECK(decided_far >= far * 99 / 100);
+    // Points of the rounding test above: on the plane, and above it by less than rounding.
+    const vec3 a{0, 0, 0}, b{1, 0, 0}, c{0, 3, 1}, d{0, 1, 1.0 / 3.0};
+    CHECK(idas::orient3d_within(a, b, c, d, 0, 0, 0, idas::rounding_radius(d)) == 0);
+    const idas::rational_point e{mpq_class(1, 7), mpq_class(2, 3), mpq_class(5, 3)};
+    const vec3 e_nearest = idas::to_vec3(e);
+    CHECK(idas::orient3d_within(a, b, c, e_nearest, 0, 0, 0, idas::rounding_radius(e_nearest)) ==
+          idas::orient3d(idas::to_rational(a), idas::to_rational(b), idas::to_rational(c), e));
+}
+
 #ifdef IDAS_PREDICATE_STATS
 TEST_CASE("orient3d: stage counters") {
     auto& st = idas::predicate_counters();

@@ -425,6 +425,34 @@ inline int orient3d_filtered(const vec3& a, const vec3& b, const vec3& c, const 
     return det > bound ? 1 : -det > bound ? -1 : 0;
 }
 
+/// The sign of orient3d(a*, b*, c*, d*) shared by every a* within `ra` of a in each
+/// coordinate, b* within `rb` of b, and so on: +1 or -1 where floating point proves it, 0
+/// when it cannot tell. With each radius the rounding error of a point's nearest double
+/// (rounding_radius in predicates/rational.hpp), it decides the orientation of exact
+/// rational points from their doubles, without the rational arithmetic.
+///
+/// The exact determinant of the doubles lies within orient3d_with_bound's bound of the
+/// computed one. Moving the points moves each row (b - a, c - a, d - a) by at most
+/// E = ra + rb (and so on) per coordinate, and each of the determinant's six products of
+/// one entry per row, with entries at most M in magnitude, by at most
+/// (M_u + E_u)(M_v + E_v)(M_w + E_w) - M_u M_v M_w, summed here term by term (all
+/// positive, so no cancellation); M is the computed difference's magnitude raised by an
+/// ulp, and the sum is raised by 2^-40 of itself for the roundings in computing it.
+/// Overflow makes a bound infinite or NaN, and the answer 0.
+inline int orient3d_within(const vec3& a, const vec3& b, const vec3& c, const vec3& d, double ra,
+                           double rb, double rc, double rd) noexcept {
+    const auto [det, bound] = orient3d_with_bound(a, b, c, d);
+    const auto magnitude = [](const vec3& p, const vec3& q) {
+        return std::max({std::fabs(p.x - q.x), std::fabs(p.y - q.y), std::fabs(p.z - q.z)}) *
+               (1.0 + 0x1p-52);
+    };
+    const double mu = magnitude(b, a), mv = magnitude(c, a), mw = magnitude(d, a);
+    const double eu = ra + rb, ev = ra + rc, ew = ra + rd;
+    const double moved = 6.0 * (eu * (mv + ev) * (mw + ew) + mu * ev * (mw + ew) + mu * mv * ew);
+    const double total = (bound + moved) * (1.0 + 0x1p-40);
+    return det > total ? 1 : -det > total ? -1 : 0;
+}
+
 /// Sign of det[b - a, c - a, d - a]: +1 if the tetrahedron (a, b, c, d) is positively
 /// oriented (d on the side from which a, b, c appear counter-clockwise), -1 if negatively,
 /// 0 if coplanar. Exact for all finite inputs.

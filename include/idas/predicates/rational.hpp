@@ -130,6 +130,15 @@ inline vec3 to_vec3(const rational_point& p) {
     return {to_double(p.x), to_double(p.y), to_double(p.z)};
 }
 
+/// How far, at most, a point's coordinates lie from the doubles to_vec3 rounds them to,
+/// given those doubles: half an ulp of the largest, doubled for room, and at least
+/// 2^-1020 (more than half the spacing of subnormals, and itself a normal number).
+inline double rounding_radius(const vec3& nearest) noexcept {
+    const double largest =
+        std::max({std::fabs(nearest.x), std::fabs(nearest.y), std::fabs(nearest.z)});
+    return 0x1p-52 * largest + 0x1p-1020;
+}
+
 namespace detail::predicates {
 
 /// Integer row proportional (by a positive factor) to p - a.
