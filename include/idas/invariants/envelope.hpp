@@ -21,8 +21,8 @@
 // * inside, otherwise: a prism contains every point within eps/sqrt(3) of its triangle T (each of
 //   its bounding planes is at least that far from T). The distance to T is convex, so a
 //   query triangle whose three corners are within r < eps/sqrt(3) of one input triangle
-//   lies inside that prism. The query is split 4-to-1 (up to 5 levels) until every piece
-//   passes this test against some nearby input triangle (closest-point queries on an
+//   lies inside that prism. The query is split 4-to-1 (up to 8 levels, 256 pieces) until every
+//   piece passes this test against some nearby input triangle (closest-point queries on an
 //   idas::triangle_aabb_tree);
 // * outside: every prism point is within eps of its triangle and within eps/sqrt(3) of
 //   its plane, so a corner or piece centroid farther than eps from the input, or outside
@@ -375,7 +375,9 @@ public:
                 }
             return false;
         };
+        int pieces = 0;
         while (top > 0) {
+            if (++pieces > max_pieces) return verdict::unknown;
             const piece p = stack[--top];
             bool ok = false;
             for (int i = n_cand - 1; i >= 0 && !ok; --i)
@@ -450,7 +452,13 @@ public:
     }
 
 private:
-    static constexpr int max_level = 5;
+    // Pieces are split down to 1/256 of the query: a piece around an input vertex where
+    // three or more triangles meet (a grid's vertex at an open border or a box's edge) is
+    // held by any of them only once it is within eps/sqrt(3) of the vertex, which queries
+    // of 100 eps need (bench/RESULTS.md, session 53). The budget bounds the pieces that a
+    // thin region beyond the prisms' inner radius keeps splitting: past it, CGAL decides.
+    static constexpr int max_level = 8;
+    static constexpr int max_pieces = 256;
     static constexpr std::size_t max_needles = 256;
     static constexpr int max_cover = 48; // input triangles one covering test may use
     static constexpr int max_walk = 12;  // steps of a walk towards a point
