@@ -510,4 +510,56 @@ TEST_CASE("envelope: concurrent checks on one envelope agree with a serial pass"
     }
 }
 
+TEST_CASE("envelope: the filter decides queries around vertices where many triangles meet") {
+    // A floor of 6 x 6 cells (two triangles each, one removed: a hole) and a wall along
+    // its edge x = 0, sharing its vertices: queries of 20-100 eps in the floor's plane
+    // around its vertices, where up to six triangles meet, and along the hole and the wall.
+    // The filter must agree with CGAL and decide most of what CGAL finds inside (split to
+    // 1/32 of the query, it left a quarter of them to CGAL).
+    constexpr int n = 6;
+    std::vector<vec3> V;
+    std::vector<tri_indices> F;
+    index_t floor[n + 1][n + 1], wall[n + 1][n + 1]; // [i][j]: x = i/n, y = j/n; [k][j]: z = k/n
+    for (int i = 0; i <= n; ++i)
+        for (int j = 0; j <= n; ++j) {
+            floor[i][j] = index_t(V.size());
+            V.push_back({double(i) / n, double(j) / n, 0});
+        }
+    for (int k = 0; k <= n; ++k)
+        for (int j = 0; j <= n; ++j) {
+            wall[k][j] = k == 0 ? floor[0][j] : index_t(V.size());
+            if (k > 0) V.push_back({0, double(j) / n, double(k) / n});
+        }
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j) {
+            if (i != 2 || j != 3) F.push_back({floor[i][j], floor[i + 1][j], floor[i + 1][j + 1]});
+            F.push_back({floor[i][j], floor[i + 1][j + 1], floor[i][j + 1]});
+            F.push_back({wall[i][j], wall[i][j + 1], wall[i + 1][j + 1]});
+            F.push_back({wall[i][j], wall[i + 1][j + 1], wall[i + 1][j]});
+        }
+    const auto env = envelope::relative(V, F, 1e-3);
+    const double eps = env.eps();
+    std::mt19937 rng(53);
+    std::uniform_real_distribution<double> u(0, 1);
+    std::uniform_int_distribution<int> vertex(0, n);
+    int inside = 0, decided_inside = 0;
+    for (int q = 0; q < 400; ++q) {
+        const vec3 c = V[floor[vertex(rng)][vertex(rng)]];
+        triangle t;
+        const double size = eps * (20 + 80 * u(rng)), phi = 6.283185307179586 * u(rng);
+        for (int k = 0; k < 3; ++k) {
+            const double a = phi + k * 2.0943951023931953;
+            t[k] = {std::clamp(c.x + size * std::cos(a), 0.0, 1.0),
+                    std::clamp(c.y + size * std::sin(a), 0.0, 1.0), 0};
+        }
+        if (squared_norm(cross(t[1] - t[0], t[2] - t[0])) < 1e-6 * eps * eps * eps * eps) continue;
+        const bool exact = env.contains_exact(t[0], t[1], t[2]);
+        const auto v = env.fast_verdict(t[0], t[1], t[2]);
+        if (v != envelope::verdict::unknown) REQUIRE((v == envelope::verdict::inside) == exact);
+        inside += exact, decided_inside += v == envelope::verdict::inside;
+    }
+    CHECK(inside > 200);
+    CHECK(decided_inside >= inside * 95 / 100);
+}
+
 #endif // IDAS_HAS_CGAL
