@@ -30,8 +30,8 @@
 //      after the iteration limit; last, one collapse pass at the full target length
 //
 // What must stay: the tracked surface (a tracked face is never swapped away, a surface
-// vertex moves or vanishes only within the envelope, and into another surface vertex
-// only along a tracked edge; where surfaces cross, too, as in fTetWild), its open borders
+// vertex moves or vanishes only within the envelope, into any vertex, through the volume
+// too; where surfaces cross, too, as in fTetWild), its open borders
 // (feature vertices slide along them and vanish only into a neighbour along the border,
 // the border's new edges within border_epsilon of the borders at the start, as in
 // fTetWild's boundary envelope; where borders meet or end, they stay), and the bounding
