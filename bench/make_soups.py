@@ -2,7 +2,7 @@
 """Writes seeded triangle soups for bench/run_tetmesh.sh: inputs a tet mesher of soups must
 take that a surface mesher would refuse. The same seed gives the same bytes.
 
-    make_soups.py OUT_DIR [--seeds 1 2]
+    make_soups.py OUT_DIR [--seeds 1 2] [--shards-level 4]
 
 Per seed, three OBJ files:
   spheres_S.obj    six to eight icospheres that overlap (closed, intersecting components:
@@ -10,7 +10,8 @@ Per seed, three OBJ files:
   open_boxes_S.obj five rotated boxes that overlap, each with a few faces removed (holes the
                    winding number has to bridge)
   shards_S.obj     an icosphere whose triangles each own their corners, moved apart by up to
-                   a quarter of an edge (no shared vertex: gaps and overlaps everywhere)
+                   a quarter of an edge (no shared vertex: gaps and overlaps everywhere);
+                   --shards-level subdivisions of the icosahedron (4: 5,120 shards; 1: 80)
 """
 import argparse
 import math
@@ -130,9 +131,9 @@ def open_boxes(rng):
     return parts
 
 
-def shards(rng):
-    v0, f0 = icosphere(4)
-    edge = 2 * math.sin(math.atan(2) / 2) / 16  # an icosphere edge, four levels down
+def shards(rng, levels=4):
+    v0, f0 = icosphere(levels)
+    edge = 2 * math.sin(math.atan(2) / 2) / 2**levels  # an icosphere edge, `levels` down
     v, f = [], []
     for t in f0:
         d = [rng.uniform(-0.25, 0.25) * edge for _ in range(3)]
@@ -146,13 +147,14 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("out")
     ap.add_argument("--seeds", type=int, nargs="+", default=[1, 2])
+    ap.add_argument("--shards-level", type=int, default=4)
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     for seed in a.seeds:
         for name, make in (("spheres", spheres), ("open_boxes", open_boxes), ("shards", shards)):
             rng = random.Random("%s-%d" % (name, seed))
             path = os.path.join(a.out, "%s_%d.obj" % (name, seed))
-            write_obj(path, make(rng))
+            write_obj(path, shards(rng, a.shards_level) if make is shards else make(rng))
             print(path)
 
 

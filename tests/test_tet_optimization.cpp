@@ -311,6 +311,21 @@ TEST_CASE("tetmesh optimization: open boxes that cross reach the stop energy on 
     CHECK(run.mesh.quality.optimization.rational_left == 0);
 }
 
+TEST_CASE("tetmesh optimization: a soup of loose triangles reaches the stop energy") {
+    // bench/make_soups.py's shards_2 at --shards-level 1 (tests/data/README.md): 80
+    // triangles that share no vertex, so every edge is an open border. Where shards cross
+    // or nearly touch, the insertion leaves border vertices a sliver apart, and vertices
+    // where borders meet. When such a vertex could vanish only into a neighbour along its
+    // own border and never slide, the run stalled at AMIPS 11.7 after 33 rounds; now a
+    // border vertex may go into any vertex (and slide) while its border edges stay within
+    // epsilon of the borders.
+    const auto s = io::read_surface(
+        (std::filesystem::path(__FILE__).parent_path() / "data" / "shards_80.obj").string());
+    REQUIRE(s.faces.size() == 80);
+    const auto run = mesh_and_check(s.vertices, s.faces, "shards_80", 1);
+    CHECK(run.mesh.quality.optimization.rational_left == 0);
+}
+
 TEST_CASE("tetmesh optimization: a touch-up's swaps and smoothing start near the bad tets") {
     // A body-centred cubic lattice's Delaunay tets (all good) with one vertex pushed almost
     // onto its neighbour: its star's tets are the bad ones. The flags are their vertices

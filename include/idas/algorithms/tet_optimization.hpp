@@ -32,9 +32,9 @@
 // What must stay: the tracked surface (a tracked face is never swapped away, a surface
 // vertex moves or vanishes only within the envelope, into any vertex, through the volume
 // too; where surfaces cross, too, as in fTetWild), its open borders
-// (feature vertices slide along them and vanish only into a neighbour along the border,
-// the border's new edges within border_epsilon of the borders at the start, as in
-// fTetWild's boundary envelope; where borders meet or end, they stay), and the bounding
+// (feature vertices slide along them and vanish into other vertices while the border's
+// edges stay within border_epsilon of the borders at the start, as in fTetWild's boundary
+// envelope), and the bounding
 // box (a vertex on a box plane stays on it: splits keep the coordinate, collapses need the
 // survivor on every plane of the removed vertex, smoothing keeps it).
 #pragma once
@@ -119,13 +119,13 @@ struct tet_optimization_options {
     /// start everywhere: started near the bad tets only, they left x.stl 5-11% more tets
     /// (bench/RESULTS.md, "Session 45").
     unsigned touch_up_rings = 2;
-    /// A vertex inside an open border (a curve of edges in an odd number of tracked faces)
-    /// slides along it and may vanish into its neighbour along it where the border's new
+    /// A vertex on an open border (a curve of edges in an odd number of tracked faces)
+    /// slides along the borders and may vanish into another vertex where the border's
     /// edges stay within this distance of the borders the insertion left (fTetWild's
-    /// boundary envelope, at its epsilon); 0: it never moves, and vanishes only where the
-    /// border stays where it was. Kept where it was, the insertion's short border edges and
-    /// the slivers at them could never go: a soup whose triangles share no vertex is all
-    /// border.
+    /// boundary envelope, at its epsilon); 0: it never moves, and vanishes only into a
+    /// neighbour along its border where the border stays where it was. Kept where it was,
+    /// the insertion's short border edges and the slivers at them could never go: a soup
+    /// whose triangles share no vertex is all border.
     double border_epsilon = 0;
 };
 
@@ -346,12 +346,13 @@ inline bool near_border(const triangle_aabb_tree& border, double r, const vec3& 
            near_border(border, r, mid, q, halvings - 1);
 }
 
-/// The two neighbours of feature vertex b along its border: over edges in an odd number of
-/// tracked faces (the same number each); nothing where borders meet or end at b (other
-/// than two such neighbours), which stays.
+/// The vertices joined to b by border edges: edges in an odd number of tracked faces (an
+/// even number lies inside the surface, or across an intersection). Where borders meet or
+/// end at b, more or fewer than two; each with the number of tracked faces on its edge.
+using border_ends = boost::container::small_vector<std::pair<index_t, int>, 4>;
+
 template <class Mesh>
-std::optional<std::pair<index_t, index_t>>
-border_neighbours(const Mesh& m, const tet_optimization_state& s, index_t b) {
+border_ends border_ends_of(const Mesh& m, const tet_optimization_state& s, index_t b) {
     tracked_faces faces;
     for (index_t g : m.vertex_tets(b)) gather_tracked(m, s, g, faces);
     boost::container::small_vector<std::pair<index_t, int>, 24> around; // neighbour, faces
@@ -367,29 +368,34 @@ border_neighbours(const Mesh& m, const tet_optimization_state& s, index_t b) {
                 ++it->second;
         }
     }
-    index_t ends[2] = {invalid_index, invalid_index};
-    int faces_at[2] = {0, 0}, found = 0;
-    for (const auto& [x, n] : around) {
-        if (n % 2 == 0) continue; // inside the surface, or across an intersection
-        if (found == 2) return std::nullopt;
-        ends[found] = x, faces_at[found] = n, ++found;
-    }
-    if (found != 2 || faces_at[0] != faces_at[1]) return std::nullopt;
-    return std::pair{ends[0], ends[1]};
+    border_ends ends;
+    for (const auto& e : around)
+        if (e.second % 2 == 1) ends.push_back(e);
+    return ends;
 }
 
-/// Whether feature vertex b may vanish into a, one of its two border neighbours, a and c:
-/// where b lies on segment ac up to rounding (the border stays where it was), or where
-/// segment ac stays within s.border_epsilon of the borders the run started with.
+/// Whether feature vertex b may vanish into a: where b lies on segment ac between its two
+/// border neighbours a and c up to rounding (the border stays where it was), or where every
+/// border edge of b, moved to end at a instead, stays within s.border_epsilon of the
+/// borders the run started with (fTetWild's boundary envelope). The second holds also where
+/// borders meet or end at b, and for an a off b's border: the insertion leaves such
+/// vertices a sliver apart where a soup's pieces cross or nearly touch (a soup of loose
+/// triangles is all border; kept, their slivers stayed above the stop energy).
 template <class Mesh>
 bool may_leave_border(const Mesh& m, const tet_optimization_state& s, index_t a, index_t b) {
-    const auto ends = border_neighbours(m, s, b);
-    if (!ends || (ends->first != a && ends->second != a)) return false;
-    const index_t c = ends->first == a ? ends->second : ends->first;
-    const vec3 pa = m.position(a), pc = m.position(c), ac = pc - pa, ab = m.position(b) - pa;
-    const double along = dot(ab, ac), ac2 = dot(ac, ac);
-    if (along > 0 && along < ac2 && squared_norm(cross(ab, ac)) <= 1e-18 * ac2 * ac2) return true;
-    return s.border_epsilon > 0 && near_border(s.border, s.border_epsilon, pa, pc);
+    const border_ends ends = border_ends_of(m, s, b);
+    const vec3 pa = m.position(a);
+    if (ends.size() == 2 && (ends[0].first == a || ends[1].first == a)) {
+        const vec3 pc = m.position(ends[0].first == a ? ends[1].first : ends[0].first);
+        const vec3 ac = pc - pa, ab = m.position(b) - pa;
+        const double along = dot(ab, ac), ac2 = dot(ac, ac);
+        if (along > 0 && along < ac2 && squared_norm(cross(ab, ac)) <= 1e-18 * ac2 * ac2)
+            return true;
+    }
+    if (!(s.border_epsilon > 0)) return false;
+    for (const auto& [x, faces] : ends)
+        if (x != a && !near_border(s.border, s.border_epsilon, pa, m.position(x))) return false;
+    return true;
 }
 
 template <class Mesh>
@@ -736,14 +742,13 @@ struct tet_collapse_spec : tet_optimization_invariants<Envelope> {
     }
 
     /// The cheap refusals first, before the operation's link condition: b must be allowed
-    /// to vanish into a (a feature vertex only along its border, a on every box plane b is
-    /// on), and the largest energy of the tets of b's star may not rise above the larger
-    /// of its old value and collapse_up_to (fTetWild's rule alone, never rise, left 1.4x
-    /// its tets on sphere).
-    /// A surface vertex may go into a vertex off the surface, or into another surface
-    /// vertex through the volume, as in fTetWild: the envelope invariant decides whether
-    /// its faces may follow. (Collapses only along tracked edges left flat tets between
-    /// surface vertices that nothing could remove: open_boxes_1 of bench/make_soups.py,
+    /// to vanish into a (a feature vertex where its border edges stay near the borders, a
+    /// on every box plane b is on), and the largest energy of the tets of b's star may not rise
+    /// above the larger of its old value and collapse_up_to (fTetWild's rule alone, never rise,
+    /// left 1.4x its tets on sphere). A surface vertex may go into a vertex off the surface, or
+    /// into another surface vertex through the volume, as in fTetWild: the envelope invariant
+    /// decides whether its faces may follow. (Collapses only along tracked edges left flat tets
+    /// between surface vertices that nothing could remove: open_boxes_1 of bench/make_soups.py,
     /// deterministic, stalled at AMIPS 1.6e7, and spheres_2 kept 1.3x fTetWild's tets.)
     template <class Mesh>
     bool should_process(op::collapse_edge, const Mesh& m, const queue_entry<tet_tuple>& e) const {
@@ -752,8 +757,8 @@ struct tet_collapse_spec : tet_optimization_invariants<Envelope> {
         const auto [a, b] = m.edge_vertices(t);
         if (!wanted(m, a, b)) return false;
         const auto kind = m.attribute(s.kind);
-        // A feature vertex vanishes only where the border stays: b all but on a, or along
-        // the border within border_epsilon.
+        // A feature vertex vanishes only where the border stays: b all but on a, or its
+        // border edges, moved to a, within border_epsilon of the borders.
         if ((kind[b] & tet_vertex::feature) &&
             !(squared_norm(m.position(a) - m.position(b)) <=
               1e-12 * detail::target_squared(m, s, a, b)) &&
@@ -804,8 +809,11 @@ struct tet_collapse_spec : tet_optimization_invariants<Envelope> {
     bool after(op::collapse_edge, Mesh& m, const op_result<tet_tuple>& r, cache& c) const {
         const index_t a = r.anchor.vid;
         auto kind = m.attribute(s.kind, r);
-        if ((c.kind_b & tet_vertex::surface) && !(kind[a] & tet_vertex::surface))
-            kind.set(a, std::uint8_t(kind[a] | tet_vertex::surface)); // b's surface is a's now
+        // b's surface is a's now, and so are b's border edges (a vertex off b's border takes
+        // them where they stay within border_epsilon of the borders).
+        const std::uint8_t inherited =
+            c.kind_b & (tet_vertex::surface | tet_vertex::feature) & ~kind[a];
+        if (inherited) kind.set(a, std::uint8_t(kind[a] | inherited));
         // Tets keep their slots and local order, so a face keeps its bit; a face through a
         // is also tracked if it replaced a tracked face through b (or merged with one).
         const auto bits = m.attribute(s.tracked);
@@ -1000,14 +1008,14 @@ struct tet_smooth_spec : tet_optimization_invariants<Envelope> {
         star st;
         gather(m, v, st);
         const vec3 p = m.position(v);
-        // A vertex inside an open border slides along it, as in fTetWild: projected onto the
-        // borders, its two border edges within border_epsilon of them.
+        // A vertex on an open border slides along the borders, as in fTetWild: projected
+        // onto them, each of its border edges within border_epsilon of them. So do vertices
+        // where borders meet or end: where a soup's pieces nearly touch, the insertion leaves
+        // them a sliver apart.
         const std::uint8_t kind = m.attribute(s.kind)[v];
-        std::optional<std::pair<index_t, index_t>> ends;
-        if (kind & tet_vertex::feature) {
-            ends = detail::border_neighbours(m, s, v);
-            if (!ends) return std::nullopt;
-        }
+        detail::border_ends ends;
+        if (kind & tet_vertex::feature) ends = detail::border_ends_of(m, s, v);
+        const bool on_border = !ends.empty();
         // Newton direction of the star's summed energy.
         vec3 grad{};
         std::array<double, 9> H{};
@@ -1031,7 +1039,7 @@ struct tet_smooth_spec : tet_optimization_invariants<Envelope> {
         if (!(squared_norm(dir) > 0)) return std::nullopt;
         for (unsigned k = 0; k < line_search_steps; ++k, dir *= 0.5) {
             vec3 q = p + dir;
-            if (ends)
+            if (on_border)
                 q = s.border.closest_point(q).point;
             else if ((kind & tet_vertex::surface) && s.input)
                 q = s.input->closest_point(q).point;
@@ -1040,9 +1048,9 @@ struct tet_smooth_spec : tet_optimization_invariants<Envelope> {
             if (q == p) continue;
             const star_energy e = energy(st, q);
             if (!(e.sum < now.sum * (1 - 1e-10) && e.max <= now.max)) continue;
-            if (ends &&
-                !(detail::near_border(s.border, s.border_epsilon, m.position(ends->first), q) &&
-                  detail::near_border(s.border, s.border_epsilon, q, m.position(ends->second))))
+            if (on_border && !std::ranges::all_of(ends, [&](const auto& e) {
+                    return detail::near_border(s.border, s.border_epsilon, q, m.position(e.first));
+                }))
                 continue;
             return q;
         }
