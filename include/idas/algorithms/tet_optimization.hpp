@@ -348,8 +348,8 @@ inline bool near_border(const triangle_aabb_tree& border, double r, const vec3& 
 
 /// The vertices joined to b by border edges: edges in an odd number of tracked faces (an
 /// even number lies inside the surface, or across an intersection). Where borders meet or
-/// end at b, more or fewer than two; each with the number of tracked faces on its edge.
-using border_ends = boost::container::small_vector<std::pair<index_t, int>, 4>;
+/// end at b, more or fewer than two.
+using border_ends = boost::container::small_vector<index_t, 4>;
 
 template <class Mesh>
 border_ends border_ends_of(const Mesh& m, const tet_optimization_state& s, index_t b) {
@@ -369,8 +369,8 @@ border_ends border_ends_of(const Mesh& m, const tet_optimization_state& s, index
         }
     }
     border_ends ends;
-    for (const auto& e : around)
-        if (e.second % 2 == 1) ends.push_back(e);
+    for (const auto& [x, n] : around)
+        if (n % 2 == 1) ends.push_back(x);
     return ends;
 }
 
@@ -385,15 +385,15 @@ template <class Mesh>
 bool may_leave_border(const Mesh& m, const tet_optimization_state& s, index_t a, index_t b) {
     const border_ends ends = border_ends_of(m, s, b);
     const vec3 pa = m.position(a);
-    if (ends.size() == 2 && (ends[0].first == a || ends[1].first == a)) {
-        const vec3 pc = m.position(ends[0].first == a ? ends[1].first : ends[0].first);
+    if (ends.size() == 2 && (ends[0] == a || ends[1] == a)) {
+        const vec3 pc = m.position(ends[0] == a ? ends[1] : ends[0]);
         const vec3 ac = pc - pa, ab = m.position(b) - pa;
         const double along = dot(ab, ac), ac2 = dot(ac, ac);
         if (along > 0 && along < ac2 && squared_norm(cross(ab, ac)) <= 1e-18 * ac2 * ac2)
             return true;
     }
     if (!(s.border_epsilon > 0)) return false;
-    for (const auto& [x, faces] : ends)
+    for (index_t x : ends)
         if (x != a && !near_border(s.border, s.border_epsilon, pa, m.position(x))) return false;
     return true;
 }
@@ -1048,8 +1048,8 @@ struct tet_smooth_spec : tet_optimization_invariants<Envelope> {
             if (q == p) continue;
             const star_energy e = energy(st, q);
             if (!(e.sum < now.sum * (1 - 1e-10) && e.max <= now.max)) continue;
-            if (on_border && !std::ranges::all_of(ends, [&](const auto& e) {
-                    return detail::near_border(s.border, s.border_epsilon, q, m.position(e.first));
+            if (on_border && !std::ranges::all_of(ends, [&](index_t x) {
+                    return detail::near_border(s.border, s.border_epsilon, q, m.position(x));
                 }))
                 continue;
             return q;
