@@ -31,12 +31,11 @@
 //
 // What must stay: the tracked surface (a tracked face is never swapped away, a surface
 // vertex moves or vanishes only within the envelope, into any vertex, through the volume
-// too; where surfaces cross, too, as in fTetWild), its open borders
-// (feature vertices slide along them and vanish into other vertices while the border's
-// edges stay within border_epsilon of the borders at the start, as in fTetWild's boundary
-// envelope), and the bounding
-// box (a vertex on a box plane stays on it: splits keep the coordinate, collapses need the
-// survivor on every plane of the removed vertex, smoothing keeps it).
+// too; where surfaces cross, too, as in fTetWild), its open borders (feature vertices
+// slide along them and vanish into other vertices while the border's edges stay within
+// border_epsilon of the borders at the start, as in fTetWild's boundary envelope), and the
+// bounding box (a vertex on a box plane stays on it: splits keep the coordinate, collapses
+// need the survivor on every plane of the removed vertex, smoothing keeps it).
 #pragma once
 
 #include <idas/core/aabb_tree.hpp>
