@@ -75,6 +75,10 @@ inline constexpr std::uint8_t feature = 2;  ///< on a tracked edge in an odd num
                                             ///< faces (an open border): moves along it
 inline constexpr std::uint8_t rational = 4; ///< exact position only in the rational table,
                                             ///< the mesh holds its nearest double
+inline constexpr std::uint8_t merged = 8;   ///< on a tracked face where a collapse merged
+                                            ///< two (or on what splits and collapses made of
+                                            ///< its edges): an odd edge at such a vertex
+                                            ///< need not be a border
 } // namespace tet_vertex
 
 /// An envelope of the input surface: exact containment of triangles.
@@ -345,6 +349,19 @@ inline bool near_border(const triangle_aabb_tree& border, double r, const vec3& 
            near_border(border, r, mid, q, halvings - 1);
 }
 
+/// Whether an edge ab in an odd number of tracked faces, at a vertex whose kind is
+/// `kind_a`, is a border. Where a collapse merged two sheets of the surface, their faces
+/// count once from then on, so the odd count may be the merge's: there the edge must also
+/// lie within border_epsilon of the borders. Merges happen where a soup's pieces nearly
+/// touch; counted as borders, such edges froze the feature vertices on them (shard soups
+/// stalled at AMIPS 30). Only a's kind is read: a collapse decides holding a and b alone.
+template <class Mesh>
+bool odd_edge_is_border(const Mesh& m, const tet_optimization_state& s, std::uint8_t kind_a,
+                        index_t a, index_t b) {
+    if (!(kind_a & tet_vertex::merged) || !(s.border_epsilon > 0)) return true;
+    return near_border(s.border, s.border_epsilon, m.position(a), m.position(b));
+}
+
 /// The vertices joined to b by border edges: edges in an odd number of tracked faces (an
 /// even number lies inside the surface, or across an intersection). Where borders meet or
 /// end at b, more or fewer than two.
@@ -367,9 +384,10 @@ border_ends border_ends_of(const Mesh& m, const tet_optimization_state& s, index
                 ++it->second;
         }
     }
+    const std::uint8_t kind_b = m.attribute(s.kind)[b];
     border_ends ends;
     for (const auto& [x, n] : around)
-        if (n % 2 == 1) ends.push_back(x);
+        if (n % 2 == 1 && odd_edge_is_border(m, s, kind_b, b, x)) ends.push_back(x);
     return ends;
 }
 
@@ -619,8 +637,11 @@ struct tet_split_spec : tet_optimization_invariants<Envelope> {
         // along it by splits would be frozen where nothing needs them (open_boxes_2 of
         // bench/make_soups.py stalled on slivers between such vertices at AMIPS 1e9).
         const auto kind = m.attribute(s.kind);
-        if (faces_on_edge % 2 == 1 && (kind[a] & kind[b] & tet_vertex::feature))
+        const std::uint8_t both = kind[a] & kind[b];
+        if (faces_on_edge % 2 == 1 && (both & tet_vertex::feature) &&
+            detail::odd_edge_is_border(m, s, both, a, b))
             c.kind |= tet_vertex::feature;
+        if (faces_on_edge > 0) c.kind |= both & tet_vertex::merged;
         const auto sc = m.attribute(s.scale);
         c.scale = 0.5 * (sc[a] + sc[b]);
         // The midpoint's length, linear along the edge until the round's end re-reads it.
@@ -706,6 +727,7 @@ struct tet_collapse_spec : tet_optimization_invariants<Envelope> {
         index_t b;
         std::uint8_t kind_b;
         detail::tracked_faces tracked;
+        boost::container::small_vector<index_t, 6> merged; // of faces that merge
     };
 
     template <class Mesh>
@@ -800,8 +822,20 @@ struct tet_collapse_spec : tet_optimization_invariants<Envelope> {
     std::optional<cache> before(op::collapse_edge, const Mesh& m, const tet_tuple& t) const {
         const auto [a, b] = m.edge_vertices(t);
         if (!wanted(m, a, b)) return std::nullopt;
-        std::optional<cache> c(std::in_place, b, m.attribute(s.kind)[b], detail::tracked_faces{});
-        for (index_t g : m.vertex_tets(b)) detail::gather_tracked(m, s, g, c->tracked);
+        std::optional<cache> c(std::in_place, b, m.attribute(s.kind)[b], detail::tracked_faces{},
+                               boost::container::small_vector<index_t, 6>{});
+        const auto bits = m.attribute(s.tracked);
+        for (index_t g : m.vertex_tets(b)) {
+            detail::gather_tracked(m, s, g, c->tracked);
+            // A tet on ab whose faces opposite a and b are both tracked: they become one.
+            const auto& tv = m.tet_vertices(g);
+            const std::uint8_t ia = tet_local::index_of(tv, a);
+            if (ia == tet_local::none) continue;
+            const std::uint8_t ib = tet_local::index_of(tv, b);
+            if ((bits[g] >> ia & 1u) && (bits[g] >> ib & 1u))
+                for (index_t x : tv)
+                    if (x != b) c->merged.push_back(x);
+        }
         return c;
     }
     template <class Mesh>
@@ -811,8 +845,11 @@ struct tet_collapse_spec : tet_optimization_invariants<Envelope> {
         // b's surface is a's now, and so are b's border edges (a vertex off b's border takes
         // them where they stay within border_epsilon of the borders).
         const std::uint8_t inherited =
-            c.kind_b & (tet_vertex::surface | tet_vertex::feature) & ~kind[a];
+            c.kind_b & (tet_vertex::surface | tet_vertex::feature | tet_vertex::merged) & ~kind[a];
         if (inherited) kind.set(a, std::uint8_t(kind[a] | inherited));
+        for (index_t x : c.merged)
+            if (!(kind[x] & tet_vertex::merged))
+                kind.set(x, std::uint8_t(kind[x] | tet_vertex::merged));
         // Tets keep their slots and local order, so a face keeps its bit; a face through a
         // is also tracked if it replaced a tracked face through b (or merged with one).
         const auto bits = m.attribute(s.tracked);
