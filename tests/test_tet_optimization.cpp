@@ -125,6 +125,16 @@ checked_run mesh_and_check(const char* name, unsigned threads, double edge_lengt
     return mesh_and_check(s.vertices, s.faces, name, threads, edge_length, sizing);
 }
 
+/// A soup of tests/data/ (this file's folder, not the bundled meshes' data/) on one thread:
+/// every check of mesh_and_check, and every vertex rounded.
+void soup_meshes(const char* file, std::size_t triangles) {
+    const auto s =
+        io::read_surface((std::filesystem::path(__FILE__).parent_path() / "data" / file).string());
+    REQUIRE(s.faces.size() == triangles);
+    const auto run = mesh_and_check(s.vertices, s.faces, file, 1);
+    CHECK(run.mesh.quality.optimization.rational_left == 0);
+}
+
 } // namespace
 
 TEST_CASE("containment memo: the envelope is asked once per triangle, in any corner order") {
@@ -305,10 +315,7 @@ TEST_CASE("tetmesh optimization: open boxes that cross reach the stop energy on 
     // collapses merged two tracked faces across a flat tet, a crossing curve got edges in
     // an odd number of tracked faces, and splits along them made border (feature) vertices
     // that could neither slide nor vanish (now a split makes one only between two).
-    const auto s = io::read_surface(
-        (std::filesystem::path(__FILE__).parent_path() / "data" / "open_boxes_2.obj").string());
-    const auto run = mesh_and_check(s.vertices, s.faces, "open_boxes_2", 1);
-    CHECK(run.mesh.quality.optimization.rational_left == 0);
+    soup_meshes("open_boxes_2.obj", 2147);
 }
 
 TEST_CASE("tetmesh optimization: a soup of loose triangles reaches the stop energy") {
@@ -319,11 +326,7 @@ TEST_CASE("tetmesh optimization: a soup of loose triangles reaches the stop ener
     // own border and never slide, the run stalled at AMIPS 11.7 after 33 rounds; now a
     // border vertex may go into any vertex (and slide) while its border edges stay within
     // epsilon of the borders.
-    const auto s = io::read_surface(
-        (std::filesystem::path(__FILE__).parent_path() / "data" / "shards_80.obj").string());
-    REQUIRE(s.faces.size() == 80);
-    const auto run = mesh_and_check(s.vertices, s.faces, "shards_80", 1);
-    CHECK(run.mesh.quality.optimization.rational_left == 0);
+    soup_meshes("shards_80.obj", 80);
 }
 
 TEST_CASE("tetmesh optimization: where collapses merge shards, no border is made") {
@@ -333,11 +336,7 @@ TEST_CASE("tetmesh optimization: where collapses merge shards, no border is made
     // number of tracked faces, were taken for borders, and the border vertices on them could
     // neither slide nor vanish (the run stalled at AMIPS 29.7 after 26 rounds). Such an edge
     // is a border now only if it lies within epsilon of the borders.
-    const auto s = io::read_surface(
-        (std::filesystem::path(__FILE__).parent_path() / "data" / "shards_320.obj").string());
-    REQUIRE(s.faces.size() == 320);
-    const auto run = mesh_and_check(s.vertices, s.faces, "shards_320", 1);
-    CHECK(run.mesh.quality.optimization.rational_left == 0);
+    soup_meshes("shards_320.obj", 320);
 }
 
 TEST_CASE("tetmesh optimization: a touch-up's swaps and smoothing start near the bad tets") {
