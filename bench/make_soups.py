@@ -151,10 +151,11 @@ def main():
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     for seed in a.seeds:
-        for name, make in (("spheres", spheres), ("open_boxes", open_boxes), ("shards", shards)):
+        for name, make in (("spheres", spheres), ("open_boxes", open_boxes),
+                           ("shards", lambda rng: shards(rng, a.shards_level))):
             rng = random.Random("%s-%d" % (name, seed))
             path = os.path.join(a.out, "%s_%d.obj" % (name, seed))
-            write_obj(path, shards(rng, a.shards_level) if make is shards else make(rng))
+            write_obj(path, make(rng))
             print(path)
 
 

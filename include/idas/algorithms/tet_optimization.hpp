@@ -350,11 +350,12 @@ inline bool near_border(const triangle_aabb_tree& border, double r, const vec3& 
 }
 
 /// Whether an edge ab in an odd number of tracked faces, at a vertex whose kind is
-/// `kind_a`, is a border. Where a collapse merged two sheets of the surface, their faces
-/// count once from then on, so the odd count may be the merge's: there the edge must also
-/// lie within border_epsilon of the borders. Merges happen where a soup's pieces nearly
-/// touch; counted as borders, such edges froze the feature vertices on them (shard soups
-/// stalled at AMIPS 30). Only a's kind is read: a collapse decides holding a and b alone.
+/// `kind_a` (or the two ends' kinds and-ed, where both are known), is a border. Where a collapse
+/// merged two sheets of the surface, their faces count once from then on, so the odd count may be
+/// the merge's: there the edge must also lie within border_epsilon of the borders. Merges happen
+/// where a soup's pieces nearly touch; counted as borders, such edges froze the feature vertices on
+/// them (shard soups stalled at AMIPS 30). Only a's kind is read: a collapse decides holding a and
+/// b alone.
 template <class Mesh>
 bool odd_edge_is_border(const Mesh& m, const tet_optimization_state& s, std::uint8_t kind_a,
                         index_t a, index_t b) {
@@ -363,8 +364,8 @@ bool odd_edge_is_border(const Mesh& m, const tet_optimization_state& s, std::uin
 }
 
 /// The vertices joined to b by border edges: edges in an odd number of tracked faces (an
-/// even number lies inside the surface, or across an intersection). Where borders meet or
-/// end at b, more or fewer than two.
+/// even number lies inside the surface, or across an intersection) that odd_edge_is_border
+/// keeps. Where borders meet or end at b, more or fewer than two.
 using border_ends = boost::container::small_vector<index_t, 4>;
 
 template <class Mesh>
@@ -632,10 +633,12 @@ struct tet_split_spec : tet_optimization_invariants<Envelope> {
         for (const auto& k : c.tracked) faces_on_edge += detail::has(k, a) && detail::has(k, b);
         if (faces_on_edge > 0) c.kind |= tet_vertex::surface;
         // A border's midpoint stays on the border. An odd edge between vertices that are not
-        // both on a border is no border: a collapse merged two tracked faces across a flat
-        // tet there (two sheets of the surface became one), and feature vertices spread
-        // along it by splits would be frozen where nothing needs them (open_boxes_2 of
-        // bench/make_soups.py stalled on slivers between such vertices at AMIPS 1e9).
+        // both on a border is no border, nor one between merged vertices away from the
+        // borders: a collapse merged two tracked faces across a flat tet there (two sheets
+        // of the surface became one), and feature vertices spread along it by splits would
+        // be frozen where nothing needs them (open_boxes_2 of bench/make_soups.py stalled on
+        // slivers between such vertices at AMIPS 1e9). The midpoint of an edge between
+        // merged vertices is merged too, so the edge's halves are judged as it was.
         const auto kind = m.attribute(s.kind);
         const std::uint8_t both = kind[a] & kind[b];
         if (faces_on_edge % 2 == 1 && (both & tet_vertex::feature) &&
