@@ -339,6 +339,32 @@ TEST_CASE("tetmesh optimization: where collapses merge shards, no border is made
     soup_meshes("shards_320.obj", 320);
 }
 
+TEST_CASE("tetmesh optimization: the last pass undoes the refinement that sizing made") {
+    // On a soup of loose triangles the energy stalls at slivers between shards, and each
+    // stall halves the target length around every bad tet (fTetWild's adaptive sizing):
+    // shards_80 grows from 21,000 tets to 51,000 (inside and outside). With the rounds'
+    // strict rule (a collapse may not raise its star's largest energy at all) the last pass
+    // collapsed 19 edges and the output kept 1.47x the tets it keeps now.
+    const auto s = io::read_surface(
+        (std::filesystem::path(__FILE__).parent_path() / "data" / "shards_80.obj").string());
+    tetmesh::options o;
+    o.edge_length = 1.0 / 20;
+    tetmesh::quality_options q;
+    const auto loose = tetmesh::mesh_volume(s.vertices, s.faces, o, q, "shards_80");
+    q.last_pass_up_to = 0;
+    const auto strict = tetmesh::mesh_volume(s.vertices, s.faces, o, q, "shards_80");
+    for (const auto* run : {&loose, &strict}) {
+        CHECK(run->quality.optimization.stopped ==
+              algorithms::tet_optimization_stop::energy_reached);
+        CHECK(run->quality.quality.amips.max <= 10); // the last pass keeps the stop energy
+        CHECK(run->quality.optimization.sizing_refinements > 0);
+        CHECK(run->quality.non_manifold_edges == 0);
+    }
+    MESSAGE("inside tets: " << loose.quality.inside_tets << " loose, " << strict.quality.inside_tets
+                            << " strict");
+    CHECK(loose.quality.inside_tets < 0.8 * strict.quality.inside_tets);
+}
+
 TEST_CASE("tetmesh optimization: a touch-up's swaps and smoothing start near the bad tets") {
     // A body-centred cubic lattice's Delaunay tets (all good) with one vertex pushed almost
     // onto its neighbour: its star's tets are the bad ones. The flags are their vertices
@@ -443,6 +469,11 @@ TEST_CASE("tetmesh optimization: absurd options are input errors") {
     CHECK_THROWS_AS(tetmesh::mesh_volume(s.vertices, s.faces, {}, q, "sphere"), input_error);
     q.stop_energy = std::numeric_limits<double>::quiet_NaN();
     CHECK_THROWS_AS(tetmesh::mesh_volume(s.vertices, s.faces, {}, q, "sphere"), input_error);
+    q.stop_energy = 10;
+    for (const double bound : {-0.1, 1.5, std::numeric_limits<double>::quiet_NaN()}) {
+        q.last_pass_up_to = bound;
+        CHECK_THROWS_AS(tetmesh::mesh_volume(s.vertices, s.faces, {}, q, "sphere"), input_error);
+    }
 }
 
 namespace {

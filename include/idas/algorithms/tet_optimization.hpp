@@ -27,7 +27,8 @@
 //      are rounded where every tet stays positive, and where the energy stalled the
 //      target length shrinks around the bad tets and grows back elsewhere (fTetWild's
 //      adaptive sizing); stop when the largest energy is at most the stop energy, or
-//      after the iteration limit; last, one collapse pass at the full target length
+//      after the iteration limit; last, a pass of collapses at the full target length
+//      (as loose about the energy as the first rounds), swaps and smoothing
 //
 // What must stay: the tracked surface (a tracked face is never swapped away, a surface
 // vertex moves or vanishes only within the envelope, into any vertex, through the volume
@@ -105,6 +106,11 @@ struct tet_optimization_options {
     /// stop_energy (0: never raise it, fTetWild's rule), until the energy first stalls.
     /// With fTetWild's rule idas kept 1.0-1.4x its tets; bench/RESULTS.md, session 23.
     double collapse_up_to = 0.6;
+    /// The same in the last pass, which undoes adaptive sizing. With fTetWild's rule there
+    /// it collapsed 155 edges of a 320-shard soup's 117,000 tets (adaptive sizing had
+    /// grown them from 30,000), whose output kept 1.4x fTetWild's tets; 0.6 keeps 1.0-1.2x
+    /// of them, at a mean AMIPS 0.03-0.16 higher (bench/RESULTS.md, session 56).
+    double last_pass_up_to = 0.6;
     double min_length = 0;       ///< a sizing field's smaller values are raised to this
     double min_scale = 1.0 / 32; ///< adaptive sizing never shrinks the target below this fraction
     /// A round that leaves at most this many tets above stop_energy is followed by
@@ -1156,9 +1162,13 @@ using tet_optimization_touch_up =
                        schedule::phase<tet_smooth_spec<Envelope>, queue::fifo>>;
 
 /// After the rounds: the adaptive sizing is undone and short edges collapsed where the
-/// energy allows, so that refinement made for a bad tet long gone does not stay.
+/// energy allows, so that refinement made for a bad tet long gone does not stay; swaps and
+/// smoothing then even out what the collapses left (neither raises the largest energy).
 template <class Envelope>
-using tet_optimization_epilogue = schedule::sequence<schedule::phase<tet_collapse_spec<Envelope>>>;
+using tet_optimization_epilogue =
+    schedule::sequence<schedule::phase<tet_collapse_spec<Envelope>>,
+                       schedule::phase<tet_swap_spec<Envelope>>,
+                       schedule::phase<tet_smooth_spec<Envelope>, queue::fifo>>;
 
 /// The whole algorithm on a tet mesh whose tracked faces are marked in `tracked` and whose
 /// rational vertices (exact positions in `exact`, approximated in the mesh) are listed.
@@ -1284,9 +1294,14 @@ struct tet_optimization {
         if (rep.stopped != tet_optimization_stop::already_good) {
             auto sc = m.attribute(s.scale);
             for (index_t v = 0; v < m.vertex_slots(); ++v) sc.raw(v) = 1.0;
+            // The rule of the rounds after a stall (never raise a star's largest energy)
+            // would keep nearly all of the refinement. No new tet exceeds both its star's
+            // old largest energy and this bound, so a run that reached the stop energy
+            // keeps it.
+            s.collapse_up_to = o.last_pass_up_to * o.stop_energy;
             const auto epi = driver<tet_optimization_epilogue<Envelope>>::run(
-                m, exec, 1, schedule::no_observer{}, collapse);
-            count(1, epi.phases[0]);
+                m, exec, 1, schedule::no_observer{}, collapse, swap, smooth);
+            for (std::size_t k = 0; k < 3; ++k) count(k + 1, epi.phases[k]);
             rep.max_energy = max_energy(m, exec.threads);
         }
         for (index_t v = 0; v < m.vertex_slots(); ++v)

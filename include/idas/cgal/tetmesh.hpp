@@ -407,6 +407,7 @@ struct quality_options {
     double stop_energy = 10;      ///< stop when the largest AMIPS is at most this
     unsigned max_iterations = 80; ///< rounds of split, collapse, swap, smooth
     unsigned stall_rounds = 12;   ///< see tet_optimization_options::stall_rounds
+    double last_pass_up_to = 0.6; ///< see tet_optimization_options::last_pass_up_to
     unsigned threads = 1;
     bool keep_outside = false; ///< output every tet (with its label), not only the inside
     /// The user's sizing field (absolute lengths, at least 1/1000 of the diagonal: smaller
@@ -714,6 +715,9 @@ volume_mesh mesh_volume(const std::vector<vec3>& vertices, const std::vector<tri
     if (!(q.stop_energy >= 3) || !std::isfinite(q.stop_energy))
         throw input_error("the stop energy must be a finite number of at least 3 (the AMIPS "
                           "energy of a regular tet)");
+    if (!(q.last_pass_up_to >= 0 && q.last_pass_up_to <= 1))
+        throw input_error("the last pass's energy bound must be a fraction of the stop energy "
+                          "from 0 to 1");
     volume_mesh out;
     clean_soup soup;
     triangle_aabb_tree input;
@@ -756,6 +760,7 @@ volume_mesh mesh_volume(const std::vector<vec3>& vertices, const std::vector<tri
     o.min_length = min_relative_length * out.insertion.diagonal;
     o.stop_energy = q.stop_energy, o.max_iterations = q.max_iterations;
     o.stall_rounds = q.stall_rounds;
+    o.last_pass_up_to = q.last_pass_up_to;
     o.border_epsilon = out.insertion.epsilon; // fTetWild's boundary envelope
     exec_options exec;
     exec.threads = std::max(1u, q.threads);
