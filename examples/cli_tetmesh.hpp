@@ -213,6 +213,7 @@ int run_tetmesh_optimized(const tetmesh_arguments& a, const idas::io::surface& s
                              {"smooths", opt.smooths},
                              {"sizing_refinements", opt.sizing_refinements},
                              {"touch_ups", opt.touch_ups},
+                             {"last_passes", opt.last_passes},
                              {"rational_vertices_left", opt.rational_left}};
         // Where the optimization's time went: each operation's passes (their serial set-up
         // and tail included) and, the rest, the work between rounds (energies, rounding,

@@ -363,6 +363,9 @@ TEST_CASE("tetmesh optimization: the last pass undoes the refinement that sizing
     MESSAGE("inside tets: " << loose.quality.inside_tets << " loose, " << strict.quality.inside_tets
                             << " strict");
     CHECK(loose.quality.inside_tets < 0.8 * strict.quality.inside_tets);
+    // The pass runs again while it removes at least 1% of the tets.
+    CHECK(loose.quality.optimization.last_passes >= 2);
+    CHECK(loose.quality.optimization.last_passes <= 3);
 }
 
 TEST_CASE("tetmesh optimization: a touch-up's swaps and smoothing start near the bad tets") {

@@ -28,7 +28,8 @@
 //      target length shrinks around the bad tets and grows back elsewhere (fTetWild's
 //      adaptive sizing); stop when the largest energy is at most the stop energy, or
 //      after the iteration limit; last, a pass of collapses at the full target length
-//      (as loose about the energy as the first rounds), swaps and smoothing
+//      (as loose about the energy as the first rounds), swaps and smoothing, up to three
+//      times
 //
 // What must stay: the tracked surface (a tracked face is never swapped away, a surface
 // vertex moves or vanishes only within the envelope, into any vertex, through the volume
@@ -111,6 +112,10 @@ struct tet_optimization_options {
     /// grown them from 30,000), whose output kept 1.4x fTetWild's tets; 0.6 keeps 1.0-1.2x
     /// of them, at a mean AMIPS 0.03-0.16 higher (bench/RESULTS.md, session 56).
     double last_pass_up_to = 0.6;
+    /// The last pass runs again, up to this many times in all, while a pass removes at
+    /// least 1% of the tets: its swaps and smoothing let through collapses it refused
+    /// (on a 320-shard soup the second pass removed 7% of the inside tets, the third 3%).
+    unsigned last_passes = 3;
     double min_length = 0;       ///< a sizing field's smaller values are raised to this
     double min_scale = 1.0 / 32; ///< adaptive sizing never shrinks the target below this fraction
     /// A round that leaves at most this many tets above stop_energy is followed by
@@ -167,6 +172,7 @@ struct tet_optimization_report {
     std::uint64_t splits = 0, collapses = 0, swaps = 0, smooths = 0, rounded = 0;
     std::uint64_t sizing_refinements = 0; ///< vertices whose target length was halved
     unsigned touch_ups = 0;               ///< rounds followed by swaps and smoothing alone
+    unsigned last_passes = 0;             ///< passes of the last collapses, swaps and smoothing
     std::size_t rational_left = 0;
     double max_energy_before = 0, max_energy = 0;
     std::vector<double> max_energy_history;      ///< after each round
@@ -1299,9 +1305,15 @@ struct tet_optimization {
             // old largest energy and this bound, so a run that reached the stop energy
             // keeps it.
             s.collapse_up_to = o.last_pass_up_to * o.stop_energy;
-            const auto epi = driver<tet_optimization_epilogue<Envelope>>::run(
-                m, exec, 1, schedule::no_observer{}, collapse, swap, smooth);
-            for (std::size_t k = 0; k < 3; ++k) count(k + 1, epi.phases[k]);
+            for (unsigned pass = 0; pass < o.last_passes; ++pass) {
+                const std::size_t tets_before = m.n_tets();
+                const auto epi = driver<tet_optimization_epilogue<Envelope>>::run(
+                    m, exec, 1, schedule::no_observer{}, collapse, swap, smooth);
+                for (std::size_t k = 0; k < 3; ++k) count(k + 1, epi.phases[k]);
+                ++rep.last_passes;
+                const auto removed = std::ptrdiff_t(tets_before) - std::ptrdiff_t(m.n_tets());
+                if (100 * removed < std::ptrdiff_t(tets_before)) break;
+            }
             rep.max_energy = max_energy(m, exec.threads);
         }
         for (index_t v = 0; v < m.vertex_slots(); ++v)
