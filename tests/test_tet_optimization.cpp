@@ -344,7 +344,7 @@ TEST_CASE("tetmesh optimization: the last pass undoes the refinement that sizing
     // stall halves the target length around every bad tet (fTetWild's adaptive sizing):
     // shards_80 grows from 21,000 tets to 51,000 (inside and outside). With the rounds'
     // strict rule (a collapse may not raise its star's largest energy at all) the last pass
-    // collapsed 19 edges and the output kept 1.47x the tets it keeps now.
+    // collapsed 19 edges and the output kept 1.7x the tets it keeps now.
     const auto s = io::read_surface(
         (std::filesystem::path(__FILE__).parent_path() / "data" / "shards_80.obj").string());
     tetmesh::options o;
