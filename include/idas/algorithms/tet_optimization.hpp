@@ -109,8 +109,9 @@ struct tet_optimization_options {
     double collapse_up_to = 0.6;
     /// The same in the last pass, which undoes adaptive sizing. With fTetWild's rule there
     /// it collapsed 155 edges of a 320-shard soup's 117,000 tets (adaptive sizing had
-    /// grown them from 30,000), whose output kept 1.4x fTetWild's tets; 0.6 keeps 1.0-1.2x
-    /// of them, at a mean AMIPS 0.03-0.16 higher (bench/RESULTS.md, session 56).
+    /// grown them from 30,000), whose output kept 1.4x fTetWild's tets; 0.6 and the
+    /// repeated pass keep 0.95-1.09x of them, at a mean AMIPS up to 0.2 higher than the
+    /// strict pass gave (bench/RESULTS.md, session 56).
     double last_pass_up_to = 0.6;
     /// The last pass runs again, up to this many times in all, while a pass removes at
     /// least 1% of the tets: its swaps and smoothing let through collapses it refused
