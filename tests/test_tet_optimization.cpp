@@ -125,11 +125,16 @@ checked_run mesh_and_check(const char* name, unsigned threads, double edge_lengt
     return mesh_and_check(s.vertices, s.faces, name, threads, edge_length, sizing);
 }
 
-/// A soup of tests/data/ (this file's folder, not the bundled meshes' data/) on one thread:
-/// every check of mesh_and_check, and every vertex rounded.
+/// A surface of tests/data/ (this file's folder, not the bundled meshes' data/).
+io::surface test_data_surface(const char* file) {
+    return io::read_surface(
+        (std::filesystem::path(__FILE__).parent_path() / "data" / file).string());
+}
+
+/// A soup of tests/data/ on one thread: every check of mesh_and_check, and every vertex
+/// rounded.
 void soup_meshes(const char* file, std::size_t triangles) {
-    const auto s =
-        io::read_surface((std::filesystem::path(__FILE__).parent_path() / "data" / file).string());
+    const auto s = test_data_surface(file);
     REQUIRE(s.faces.size() == triangles);
     const auto run = mesh_and_check(s.vertices, s.faces, file, 1);
     CHECK(run.mesh.quality.optimization.rational_left == 0);
@@ -345,8 +350,7 @@ TEST_CASE("tetmesh optimization: the last pass undoes the refinement that sizing
     // shards_80 grows from 21,000 tets to 51,000 (inside and outside). With the rounds'
     // strict rule (a collapse may not raise its star's largest energy at all) the last pass
     // collapsed 19 edges and the output kept 1.7x the tets it keeps now.
-    const auto s = io::read_surface(
-        (std::filesystem::path(__FILE__).parent_path() / "data" / "shards_80.obj").string());
+    const auto s = test_data_surface("shards_80.obj");
     tetmesh::options o;
     o.edge_length = 1.0 / 20;
     tetmesh::quality_options q;

@@ -1171,11 +1171,9 @@ using tet_optimization_touch_up =
 /// After the rounds: the adaptive sizing is undone and short edges collapsed where the
 /// energy allows, so that refinement made for a bad tet long gone does not stay; swaps and
 /// smoothing then even out what the collapses left (neither raises the largest energy).
+/// The touch-up's schedule, with every vertex in play (no focus).
 template <class Envelope>
-using tet_optimization_epilogue =
-    schedule::sequence<schedule::phase<tet_collapse_spec<Envelope>>,
-                       schedule::phase<tet_swap_spec<Envelope>>,
-                       schedule::phase<tet_smooth_spec<Envelope>, queue::fifo>>;
+using tet_optimization_epilogue = tet_optimization_touch_up<Envelope>;
 
 /// The whole algorithm on a tet mesh whose tracked faces are marked in `tracked` and whose
 /// rational vertices (exact positions in `exact`, approximated in the mesh) are listed.
