@@ -68,15 +68,14 @@ if [[ $table_only == 0 ]]; then
             for ratio in $ratios; do
                 for shuffle in $shuffles; do
                     echo "$file $level $algorithm $ratio $shuffle" >&2
-                    # mode peer threads
                     for run in "serial idas-$algorithm 1" \
                         "deterministic idas-$algorithm-det $threads" \
                         "try_lock idas-$algorithm $threads"; do
-                        set -- $run
-                        line=$("$bin" --peer "$2" --input "$level" --data "$root/data/$file" \
-                            --ratio "$ratio" --threads "$3" --samples "$samples" \
+                        read -r mode peer run_threads <<<"$run"
+                        line=$("$bin" --peer "$peer" --input "$level" --data "$root/data/$file" \
+                            --ratio "$ratio" --threads "$run_threads" --samples "$samples" \
                             --shuffle "$shuffle" --self-intersections)
-                        echo "{\"case\":\"$file $level\",\"mode\":\"$1\",\"run\":$line}" >>"$jsonl"
+                        echo "{\"case\":\"$file $level\",\"mode\":\"$mode\",\"run\":$line}" >>"$jsonl"
                     done
                 done
             done
