@@ -449,6 +449,43 @@ TEST_CASE("tetmesh optimization: a collapse's entry is decided holding its edge 
     CHECK(claim_seeds<op::collapse_edge>(m, t, busy_b) == claim_result::busy);
 }
 
+TEST_CASE("tetmesh optimization: sizing adapts where the energy stalls or crawls") {
+    using algorithms::energy_stalled;
+    using algorithms::energy_summary;
+    // fTetWild's test: the largest energy fell by less than 0.5, the mean by less than 10%.
+    CHECK(energy_stalled({21.8, 4.10, 5}, {21.5, 4.05, 5}, 10, 8));
+    CHECK(energy_stalled({40.2, 4.3, 63}, {40.2, 4.3, 55}, 10, 8));
+    CHECK_FALSE(energy_stalled({1.57e11, 3.9e6, 409}, {97.8, 4.2, 165}, 10, 8));
+    CHECK_FALSE(energy_stalled({11.6, 4.0, 1}, {11.0, 3.95, 1}, 10, 8)); // 0.6 gained
+    // A crawl (open_boxes_1 on two threads): one nearly flat tet on the surface halves its
+    // energy each round while the 155 tets above 10 stay. At that rate the stop is 30
+    // rounds away; fTetWild's test alone (slow_rounds 0) never fires.
+    const energy_summary crawl_before{1.08e10, 2.7e5, 155}, crawl_now{5.48e9, 1.4e5, 155};
+    CHECK(energy_stalled(crawl_before, crawl_now, 10, 8));
+    CHECK_FALSE(energy_stalled(crawl_before, crawl_now, 10, 0));
+    CHECK_FALSE(energy_stalled(crawl_before, crawl_now, 10, 40)); // within 40 such rounds
+    // The same fall while a tenth of the tets above the stop went: progress.
+    CHECK_FALSE(energy_stalled(crawl_before, {5.48e9, 1.4e5, 139}, 10, 8));
+    // A fall that reaches the stop in a few rounds: 30 -> 20 (two more) is no crawl.
+    CHECK_FALSE(energy_stalled({30, 4.5, 9}, {20, 4.4, 9}, 10, 8));
+    // From or to an unbounded energy (a flat tet in doubles) is no crawl either.
+    const double inf = std::numeric_limits<double>::infinity();
+    CHECK_FALSE(energy_stalled({inf, 4.5, 300}, {1e10, 4.4, 299}, 10, 8));
+}
+
+TEST_CASE("tetmesh optimization: a crawling energy adapts the sizing early") {
+    // bench/make_soups.py's shards_1 at --shards-level 2 (tests/data/README.md): 320 loose
+    // triangles. The largest energy fell from 4,030 to 800 over the first eleven rounds, by
+    // hundreds a round and then by a few, always more than the 0.5 fTetWild's test asks,
+    // while 1,150-1,550 tets at the shards' borders stayed above 10; the sizing adapted
+    // only then, and the run took 23 rounds. Counted as stalled from the fourth round on, it
+    // takes 14.
+    const auto s = test_data_surface("shards_320_1.obj");
+    REQUIRE(s.faces.size() == 320);
+    const auto run = mesh_and_check(s.vertices, s.faces, "shards_320_1.obj", 1);
+    CHECK(run.mesh.quality.optimization.iterations < 20);
+}
+
 TEST_CASE("tetmesh optimization: the run stops once its rounds stall") {
     // Progress is a new best: a lower largest energy, or fewer tets above the stop energy.
     algorithms::stall_watch w(3);
