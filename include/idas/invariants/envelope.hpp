@@ -259,7 +259,8 @@ public:
         const data& d = *data_;
         if (d.tree.empty()) return verdict::unknown;
         if (cache.owner != d.id) cache.n = 0, cache.owner = d.id, cache.seed = invalid_index;
-        if (covered(d, a, b, c, cache)) {
+        uncovered_parts parts;
+        if (covered(d, a, b, c, cache, &parts)) {
             IDAS_DETAIL_ENV_COUNT(covered);
             return verdict::inside;
         }
@@ -322,10 +323,6 @@ public:
             vec3 a, b, c;
             int level;
         };
-        piece stack[3 * max_level + 2];
-        int top = 0;
-        bool undecided = false;
-        stack[top++] = {a, b, c, 0};
         auto holds = [&](const piece& p, const candidate& c) {
             return within(c, p.a) && within(c, p.b) && within(c, p.c);
         };
@@ -375,39 +372,67 @@ public:
                 }
             return false;
         };
+        // Splits `root` until a candidate holds each piece (inside), a piece's centroid is
+        // beyond every prism (outside) or the budget runs out (unknown).
         int pieces = 0;
-        while (top > 0) {
-            if (++pieces > max_pieces) return verdict::unknown;
-            const piece p = stack[--top];
-            bool ok = false;
-            for (int i = n_cand - 1; i >= 0 && !ok; --i)
-                if (holds(p, cand[i])) {
-                    ok = true;
-                    // Neighbouring pieces come next: try this candidate first for them.
-                    if (i != n_cand - 1) std::swap(cand[i], cand[n_cand - 1]);
+        auto prove = [&](const piece& root) {
+            piece stack[3 * max_level + 2];
+            int top = 0;
+            bool undecided = false;
+            stack[top++] = root;
+            while (top > 0) {
+                if (++pieces > max_pieces) return verdict::unknown;
+                const piece p = stack[--top];
+                bool ok = false;
+                for (int i = n_cand - 1; i >= 0 && !ok; --i)
+                    if (holds(p, cand[i])) {
+                        ok = true;
+                        // Neighbouring pieces come next: try this candidate first for them.
+                        if (i != n_cand - 1) std::swap(cand[i], cand[n_cand - 1]);
+                    }
+                if (!ok) {
+                    bool added = false;
+                    if (!near_input((p.a + p.b + p.c) / 3.0, added)) return outside;
+                    if (added) ok = holds(p, cand[n_cand - 1]); // the others failed already
                 }
-            if (!ok) {
-                bool added = false;
-                if (!near_input((p.a + p.b + p.c) / 3.0, added)) return outside;
-                if (added) ok = holds(p, cand[n_cand - 1]); // the others failed already
+                if (ok || held_by_two(p)) continue;
+                if (p.level == max_level) {
+                    // Unresolved piece: it may still prove the triangle outside if its centroid
+                    // is outside every prism; otherwise CGAL decides the whole triangle, unless
+                    // another piece proves it outside first.
+                    if (outside == verdict::outside &&
+                        outside_all_prisms(d, (p.a + p.b + p.c) / 3.0))
+                        return outside;
+                    undecided = true;
+                    continue;
+                }
+                const vec3 ab = (p.a + p.b) * 0.5, bc = (p.b + p.c) * 0.5, ca = (p.c + p.a) * 0.5;
+                stack[top++] = {ab, bc, ca, p.level + 1};
+                stack[top++] = {ca, bc, p.c, p.level + 1};
+                stack[top++] = {ab, p.b, bc, p.level + 1};
+                stack[top++] = {p.a, ab, ca, p.level + 1};
             }
-            if (ok || held_by_two(p)) continue;
-            if (p.level == max_level) {
-                // Unresolved piece: it may still prove the triangle outside if its centroid
-                // is outside every prism; otherwise CGAL decides the whole triangle, unless
-                // another piece proves it outside first.
-                if (outside == verdict::outside && outside_all_prisms(d, (p.a + p.b + p.c) / 3.0))
-                    return outside;
-                undecided = true;
-                continue;
+            return undecided ? verdict::unknown : verdict::inside;
+        };
+        // The parts the covering test left (most of the query proven by it): each part
+        // apart, fanned into pieces. Failing that, the whole query.
+        if (parts.beyond && outside == verdict::outside) return outside;
+        if (parts.n > 0) {
+            // A query that leaves the envelope is most often shown out by a part's centre
+            // beyond every prism, before any part is split.
+            for (int k = 0; k < parts.n && outside == verdict::outside; ++k) {
+                vec3 centre{0, 0, 0};
+                for (int m = 0; m < parts.count[k]; ++m) centre += parts.corner(k, m);
+                if (outside_all_prisms(d, centre / double(parts.count[k]))) return outside;
             }
-            const vec3 ab = (p.a + p.b) * 0.5, bc = (p.b + p.c) * 0.5, ca = (p.c + p.a) * 0.5;
-            stack[top++] = {ab, bc, ca, p.level + 1};
-            stack[top++] = {ca, bc, p.c, p.level + 1};
-            stack[top++] = {ab, p.b, bc, p.level + 1};
-            stack[top++] = {p.a, ab, ca, p.level + 1};
+            verdict v = verdict::inside;
+            for (int k = 0; k < parts.n && v == verdict::inside; ++k)
+                for (int m = 1; m + 1 < parts.count[k] && v == verdict::inside; ++m)
+                    v = prove({parts.corner(k, 0), parts.corner(k, m), parts.corner(k, m + 1), 0});
+            if (v != verdict::unknown) return v;
+            pieces = 0;
         }
-        return undecided ? verdict::unknown : verdict::inside;
+        return prove({a, b, c, 0});
     }
 
     /// contains(a, b, c) reusing a filter cache (see filter_cache).
@@ -462,6 +487,28 @@ private:
     static constexpr std::size_t max_needles = 256;
     static constexpr int max_cover = 48; // input triangles one covering test may use
     static constexpr int max_walk = 12;  // steps of a walk towards a point
+    static constexpr int max_parts = 24; // parts a covering test may leave to the pieces
+
+    /// What a covering test proved all of but a few parts: the query above those input
+    /// triangles whose offset and distance checks failed (each clipped by the triangle's
+    /// projection, a convex polygon on the query), for the piece test to decide. Left
+    /// uninitialised but for the count: one is made for every query.
+    struct uncovered_parts {
+        int n = 0;
+        bool beyond = false; // a point of the query farther than eps from the input: `far`
+        vec3 far;
+        int count[max_parts];
+        double xyz[max_parts][9][3];
+
+        vec3 corner(int k, int m) const noexcept {
+            return {xyz[k][m][0], xyz[k][m][1], xyz[k][m][2]};
+        }
+        void add(const vec3* P, int np) noexcept {
+            for (int m = 0; m < np; ++m)
+                for (int i = 0; i < 3; ++i) xyz[n][m][i] = P[m][i];
+            count[n++] = np;
+        }
+    };
 
     struct data;
     struct cover_face {
@@ -523,8 +570,14 @@ private:
     // hence inside that prism. The edge test may only err towards "meets" and the clip
     // only towards larger polygons (tolerance cover_tol); cover_r leaves room for the
     // rounding of the normals, offsets and clipped corners. False says nothing.
+    // With `parts`, a triangle of S whose clipped part fails the second check does not end
+    // the test: the part is listed (up to max_parts of them), and false with parts listed
+    // says that the rest of the query is inside. A query over a bumpy scan often passes
+    // everywhere but above one or two triangles, so the pieces need prove only those parts
+    // (bunny's pre-simplification: half its time went to queries the covering test failed
+    // and the pieces then proved whole).
     static bool covered(const data& d, const vec3& a, const vec3& b, const vec3& c,
-                        filter_cache& cache) {
+                        filter_cache& cache, uncovered_parts* parts = nullptr) {
         if (!(d.cover_r > 0)) return false;
         for (const vec3* p : {&a, &b, &c})
             if (!(std::max({std::abs(p->x), std::abs(p->y), std::abs(p->z)}) <= 2 * d.coord))
@@ -539,12 +592,20 @@ private:
             k2 = k1, k1 = 2;
         else if (m[2] > m[k2])
             k2 = 2;
-        if (covered_along(d, a, b, c, k1, cache)) return true;
-        return m[k2] >= 0.5 * m[k1] && covered_along(d, a, b, c, k2, cache);
+        if (covered_along(d, a, b, c, k1, cache, parts)) return true;
+        if (!(m[k2] >= 0.5 * m[k1]) || (parts && parts->beyond)) return false;
+        if (!parts || parts->n == 0) return covered_along(d, a, b, c, k2, cache, parts);
+        // k1 left parts: k2 may prove the whole query, else k1's parts stand.
+        return covered_along(d, a, b, c, k2, cache, nullptr);
     }
 
     static bool covered_along(const data& d, const vec3& a, const vec3& b, const vec3& c, int k,
-                              filter_cache& cache) {
+                              filter_cache& cache, uncovered_parts* parts = nullptr) {
+        // Structural failures void the parts listed so far (the cover is not complete).
+        auto fail = [parts] {
+            if (parts) parts->n = 0;
+            return false;
+        };
         const int i = (k + 1) % 3, j = (k + 2) % 3;
         const point2 Q[3] = {{a[i], a[j]}, {b[i], b[j]}, {c[i], c[j]}};
         const int sq = orient2d(Q[0], Q[1], Q[2]);
@@ -590,15 +651,15 @@ private:
         for (int s = 0; s < n; ++s) {
             const cover_face& F = d.cover[S[s]];
             // Steep triangles magnify offsets along k (and their rounding).
-            if (!F.usable) return false;
+            if (!F.usable) return fail();
             const point2 T[3] = {
                 {F.t[0][i], F.t[0][j]}, {F.t[1][i], F.t[1][j]}, {F.t[2][i], F.t[2][j]}};
             for (int e = 0; e < 3; ++e) {
                 if (!meets(T[e], T[(e + 1) % 3])) continue;
                 const index_t g = F.nbr[e];
-                if (g == invalid_index || d.cover[g].sign[k] != sigma) return false;
+                if (g == invalid_index || d.cover[g].sign[k] != sigma) return fail();
                 if (std::find(S, S + n, g) == S + n) {
-                    if (n == max_cover) return false;
+                    if (n == max_cover) return fail();
                     S[n++] = g;
                 }
             }
@@ -636,14 +697,23 @@ private:
                 np = nn;
                 std::copy(P2, P2 + nn, P);
             }
-            for (int m = 0; m < np; ++m)
+            int failed = -1;
+            for (int m = 0; m < np && failed < 0; ++m)
                 if (!offset_ok(P[m]) &&
-                    !(squared_norm(
-                          P[m] - closest_point_on_triangle(P[m], F.t[0], F.t[1], F.t[2])) <= r2)) {
-                    return false;
-                }
+                    !(squared_norm(P[m] -
+                                   closest_point_on_triangle(P[m], F.t[0], F.t[1], F.t[2])) <= r2))
+                    failed = m;
+            if (failed < 0) continue;
+            if (np < 3 || !parts || parts->n == max_parts) return fail();
+            // The corner that failed is where the query is most likely to leave the
+            // envelope: a query that does is told so at once.
+            if (!d.tree.closest_point(P[failed], d.outside_r2, S[s])) {
+                parts->beyond = true, parts->far = P[failed];
+                return fail();
+            }
+            parts->add(P, np);
         }
-        return true;
+        return !parts || parts->n == 0;
     }
 
     struct data {
