@@ -418,13 +418,12 @@ public:
         // apart, fanned into pieces. Failing that, the whole query.
         if (parts.beyond && outside == verdict::outside) return outside;
         if (parts.n > 0) {
-            // A query that leaves the envelope is most often shown out by a part's centre
-            // beyond every prism, before any part is split.
-            for (int k = 0; k < parts.n && outside == verdict::outside; ++k) {
-                vec3 centre{0, 0, 0};
-                for (int m = 0; m < parts.count[k]; ++m) centre += parts.corner(k, m);
-                if (outside_all_prisms(d, centre / double(parts.count[k]))) return outside;
-            }
+            // A query that leaves the envelope is most often shown out, before any part is
+            // split, by a part's failed corner: one beyond the inner radius of every input
+            // triangle may be outside every prism.
+            for (int k = 0; k < parts.n && outside == verdict::outside; ++k)
+                if (parts.probe[k] >= 0 && outside_all_prisms(d, parts.corner(k, parts.probe[k])))
+                    return outside;
             verdict v = verdict::inside;
             for (int k = 0; k < parts.n && v == verdict::inside; ++k)
                 for (int m = 1; m + 1 < parts.count[k] && v == verdict::inside; ++m)
@@ -495,17 +494,18 @@ private:
     /// uninitialised but for the count: one is made for every query.
     struct uncovered_parts {
         int n = 0;
-        bool beyond = false; // a point of the query farther than eps from the input: `far`
-        vec3 far;
+        bool beyond = false; // a point of the query is farther than eps from the input
         int count[max_parts];
+        int probe[max_parts]; // a corner farther than the inner radius from the input, or -1
         double xyz[max_parts][9][3];
 
         vec3 corner(int k, int m) const noexcept {
             return {xyz[k][m][0], xyz[k][m][1], xyz[k][m][2]};
         }
-        void add(const vec3* P, int np) noexcept {
+        void add(const vec3* P, int np, int far_corner) noexcept {
             for (int m = 0; m < np; ++m)
                 for (int i = 0; i < 3; ++i) xyz[n][m][i] = P[m][i];
+            probe[n] = far_corner;
             count[n++] = np;
         }
     };
@@ -704,15 +704,23 @@ private:
                                    closest_point_on_triangle(P[m], F.t[0], F.t[1], F.t[2])) <= r2))
                     failed = m;
             if (failed < 0) continue;
-            if (np < 3 || !parts || parts->n == max_parts) return fail();
+            // Parts above most of S (three in four so far, or half in the end): the pieces
+            // would split nearly the whole query anyway, and splitting it whole costs less
+            // than a tree query per part (a coarse sphere's queries, about one input
+            // triangle wide, fail above nearly every one).
+            if (np < 3 || !parts || parts->n == max_parts ||
+                (parts->n >= 4 && 4 * parts->n > 3 * s))
+                return fail();
             // The corner that failed is where the query is most likely to leave the
             // envelope: a query that does is told so at once.
-            if (!d.tree.closest_point(P[failed], d.outside_r2, S[s])) {
-                parts->beyond = true, parts->far = P[failed];
+            const auto near = d.tree.closest_point(P[failed], d.outside_r2, S[s]);
+            if (!near) {
+                parts->beyond = true;
                 return fail();
             }
-            parts->add(P, np);
+            parts->add(P, np, near.squared_distance > d.inside_r2 ? failed : -1);
         }
+        if (parts && 2 * parts->n > n) return fail();
         return !parts || parts->n == 0;
     }
 
