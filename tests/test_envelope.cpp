@@ -568,7 +568,7 @@ TEST_CASE("envelope: the filter decides what the covering test leaves in parts")
     // radius (0.58 eps), over a few it is not, and there it may or may not leave the
     // envelope. The covering test proves the query over the good cells and leaves the
     // others in parts for the pieces, which must decide them as CGAL does (split whole, the
-    // queries that leave the envelope only a little were left to CGAL: 43 of 1,000).
+    // queries that leave the envelope only a little were left to CGAL: 74 of 1,000).
     constexpr int n = 40;
     const double eps = 1e-3;
     std::mt19937 rng(3);

@@ -17,7 +17,8 @@
 //   edge adjacency from the last query's, cover the query's projection (checked with
 //   exact orientations: a closed patch of consistently oriented triangles), and the part
 //   of the query above each of them is within eps/sqrt(3) of it (its clipped corners
-//   decide, the distance to a triangle being convex); see `covered_along`;
+//   decide, the distance to a triangle being convex); see `covered_along`. Where the part
+//   above a few of them fails that check, only those parts go to the second stage;
 // * inside, otherwise: a prism contains every point within eps/sqrt(3) of its triangle T (each of
 //   its bounding planes is at least that far from T). The distance to T is convex, so a
 //   query triangle whose three corners are within r < eps/sqrt(3) of one input triangle
