@@ -605,4 +605,67 @@ TEST_CASE("envelope: the filter decides what the covering test leaves in parts")
     CHECK(count[int(envelope::verdict::unknown)] < 15);
 }
 
+TEST_CASE("envelope: queries along a fold and a border, where the covering test lists slivers") {
+    // A floor z = 0 on [0, 1] x [0, 1], folded back under itself along x = 1 (a second
+    // sheet from x = 1 to x = 0.4, sinking to z = -0.25), open along y = 0 and y = 1. Queries in
+    // the floor's plane touch the fold's line or the border from the floor's side, or pass them by
+    // up to 2 eps: across the fold the next triangle turns the other way along z, so the covering
+    // test can only list the query's sliver beyond the line for the pieces. Every verdict must
+    // agree with CGAL.
+    constexpr int n = 10;
+    std::vector<vec3> V;
+    std::vector<tri_indices> F;
+    auto row = [&](auto&& point) {
+        const index_t first = index_t(V.size());
+        for (int j = 0; j <= n; ++j)
+            for (int i = 0; i <= n; ++i) V.push_back(point(double(i) / n, double(j) / n));
+        return first;
+    };
+    const index_t floor = row([](double s, double y) { return vec3{s, y, 0}; });
+    const index_t under = row([](double s, double y) { return vec3{1 - 0.6 * s, y, -0.25 * s}; });
+    // Both sheets in the order of their parameters: the fold turns the under sheet over, so
+    // the surface is consistently oriented and the under sheet faces down.
+    auto quads = [&](index_t first) {
+        for (int j = 0; j < n; ++j)
+            for (int i = 0; i < n; ++i) {
+                const index_t p = first + index_t(j * (n + 1) + i), q = p + 1;
+                const index_t r = p + index_t(n + 1), w = r + 1;
+                F.push_back({p, q, w});
+                F.push_back({p, w, r});
+            }
+    };
+    quads(floor);
+    quads(under);
+    // The fold's vertices are shared: the under sheet's first column is the floor's last.
+    for (auto& f : F)
+        for (index_t& v : f)
+            if (v >= under && (v - under) % (n + 1) == 0) v = floor + (v - under) + index_t(n);
+    const auto env = envelope::relative(V, F, 1e-3);
+    const double eps = env.eps();
+    std::mt19937 rng(59);
+    std::uniform_real_distribution<double> u(0, 1);
+    int count[3] = {0, 0, 0}, inside = 0;
+    for (int q = 0; q < 600; ++q) {
+        // Two corners on (or past) the fold's line x = 1 or the border y = 0, one inside.
+        const bool fold = q % 2 == 0;
+        const double past = q % 3 == 0 ? 2 * eps * u(rng) : 0.0, len = 0.05 + 0.25 * u(rng);
+        const double along = 0.2 + 0.5 * u(rng), depth = 0.02 + 0.2 * u(rng);
+        triangle t;
+        if (fold)
+            t = {vec3{1 + past, along, 0}, vec3{1 - depth, along + len / 2, 0},
+                 vec3{1 + past * u(rng), along + len, 0}};
+        else
+            t = {vec3{along, -past, 0}, vec3{along + len, -past * u(rng), 0},
+                 vec3{along + len / 2, depth, 0}};
+        const bool exact = env.contains_exact(t[0], t[1], t[2]);
+        const auto v = env.fast_verdict(t[0], t[1], t[2]);
+        if (v != envelope::verdict::unknown) REQUIRE((v == envelope::verdict::inside) == exact);
+        ++count[int(v)], inside += exact;
+    }
+    CHECK(inside > 100);
+    CHECK(inside < 550);
+    CHECK(count[int(envelope::verdict::inside)] >= inside * 9 / 10);
+    CHECK(count[int(envelope::verdict::outside)] > 20);
+}
+
 #endif // IDAS_HAS_CGAL

@@ -577,6 +577,16 @@ private:
     // everywhere but above one or two triangles, so the pieces need prove only those parts
     // (bunny's pre-simplification: half its time went to queries the covering test failed
     // and the pieces then proved whole).
+    // Also with `parts`, an edge the query's projection may meet without a triangle of the
+    // same orientation across it (a border, or a crease that folds under the query) does
+    // not end the test if the query lies on T's side of the edge's line but for the
+    // tolerance: the sliver of the query beyond the line (clipped with the line moved
+    // towards T by the tolerance) is listed as a part. The projections of S together with
+    // these slivers still cover the query's: a straight path inside the query's projection
+    // that leaves the union of S crosses such an edge, or passes a vertex between two such
+    // edges (less than a turn apart, so that it goes beyond one of their lines), and from
+    // there on it stays beyond that line, in its sliver. A mesh's creases (37989_sf, CAD
+    // parts, open borders of soups) stopped most covering tests there before.
     static bool covered(const data& d, const vec3& a, const vec3& b, const vec3& c,
                         filter_cache& cache, uncovered_parts* parts = nullptr) {
         if (!(d.cover_r > 0)) return false;
@@ -658,7 +668,36 @@ private:
             for (int e = 0; e < 3; ++e) {
                 if (!meets(T[e], T[(e + 1) % 3])) continue;
                 const index_t g = F.nbr[e];
-                if (g == invalid_index || d.cover[g].sign[k] != sigma) return fail();
+                if (g == invalid_index || d.cover[g].sign[k] != sigma) {
+                    // No cover across: the query may only touch this edge (all of it on F's
+                    // side but for the tolerance), and its sliver beyond the edge's line
+                    // goes to the pieces (see `covered`).
+                    const point2 &u = T[e], &v = T[(e + 1) % 3];
+                    const double t = tol * l1(u, v);
+                    double side[3];
+                    bool inner = true;
+                    for (int m = 0; m < 3; ++m) {
+                        side[m] = t - sigma * cross2(u, v, Q[m]); // >= 0: beyond, expanded by t
+                        inner = inner && side[m] <= 2 * t;
+                    }
+                    if (!inner || !parts || parts->n == max_parts) return fail();
+                    vec3 B[4];
+                    int nb = 0;
+                    const vec3 C[3] = {a, b, c};
+                    for (int m = 0; m < 3; ++m) {
+                        const int q = (m + 1) % 3;
+                        if (side[m] >= 0) B[nb++] = C[m];
+                        if ((side[m] >= 0) != (side[q] >= 0)) {
+                            const double w = std::clamp(side[m] / (side[m] - side[q]), 0.0, 1.0);
+                            B[nb++] = C[m] + (C[q] - C[m]) * w;
+                        }
+                    }
+                    if (nb >= 3)
+                        parts->add(B, nb, -1);
+                    else if (nb > 0)
+                        return fail();
+                    continue;
+                }
                 if (std::find(S, S + n, g) == S + n) {
                     if (n == max_cover) return fail();
                     S[n++] = g;
