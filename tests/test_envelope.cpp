@@ -39,6 +39,19 @@ triangle face_triangle(const soup& s, std::size_t f) {
     return {s.V[s.F[f][0]], s.V[s.F[f][1]], s.V[s.F[f][2]]};
 }
 
+/// The filter's verdicts on queries beside CGAL's: wherever the filter decides, it must
+/// agree; counts of each verdict and of CGAL's insides.
+struct verdict_tally {
+    int count[3] = {0, 0, 0}, inside = 0;
+    void add(const envelope& env, const triangle& t) {
+        const bool exact = env.contains_exact(t[0], t[1], t[2]);
+        const auto v = env.fast_verdict(t[0], t[1], t[2]);
+        if (v != envelope::verdict::unknown) REQUIRE((v == envelope::verdict::inside) == exact);
+        ++count[int(v)], inside += exact;
+    }
+    int decided(envelope::verdict v) const { return count[int(v)]; }
+};
+
 triangle moved(const triangle& t, double distance) {
     const vec3 d = unit_normal(t[0], t[1], t[2]) * distance;
     return {t[0] + d, t[1] + d, t[2] + d};
@@ -585,7 +598,7 @@ TEST_CASE("envelope: the filter decides what the covering test leaves in parts")
             F.push_back({id(i, j), id(i + 1, j + 1), id(i, j + 1)});
         }
     const envelope env(V, F, eps);
-    int count[3] = {0, 0, 0}, inside = 0;
+    verdict_tally tally;
     for (int q = 0; q < 1000; ++q) {
         const double cx = 0.2 + 0.6 * u(rng), cy = 0.2 + 0.6 * u(rng);
         const double size = (0.5 + 2.5 * u(rng)) / n, phi = 6.283185307179586 * u(rng);
@@ -594,15 +607,12 @@ TEST_CASE("envelope: the filter decides what the covering test leaves in parts")
             const double a = phi + k * 2.0943951023931953;
             t[k] = {cx + size * std::cos(a), cy + size * std::sin(a), 0.2 * eps * (2 * u(rng) - 1)};
         }
-        const bool exact = env.contains_exact(t[0], t[1], t[2]);
-        const auto v = env.fast_verdict(t[0], t[1], t[2]);
-        if (v != envelope::verdict::unknown) REQUIRE((v == envelope::verdict::inside) == exact);
-        ++count[int(v)], inside += exact;
+        tally.add(env, t);
     }
-    CHECK(inside > 200);
-    CHECK(inside < 800);
-    CHECK(count[int(envelope::verdict::inside)] >= inside * 98 / 100);
-    CHECK(count[int(envelope::verdict::unknown)] < 15);
+    CHECK(tally.inside > 200);
+    CHECK(tally.inside < 800);
+    CHECK(tally.decided(envelope::verdict::inside) >= tally.inside * 98 / 100);
+    CHECK(tally.decided(envelope::verdict::unknown) < 15);
 }
 
 TEST_CASE("envelope: queries along a fold and a border, where the covering test lists slivers") {
@@ -644,7 +654,7 @@ TEST_CASE("envelope: queries along a fold and a border, where the covering test 
     const double eps = env.eps();
     std::mt19937 rng(59);
     std::uniform_real_distribution<double> u(0, 1);
-    int count[3] = {0, 0, 0}, inside = 0;
+    verdict_tally tally;
     for (int q = 0; q < 600; ++q) {
         // Two corners on (or past) the fold's line x = 1 or the border y = 0, one inside.
         const bool fold = q % 2 == 0;
@@ -657,15 +667,12 @@ TEST_CASE("envelope: queries along a fold and a border, where the covering test 
         else
             t = {vec3{along, -past, 0}, vec3{along + len, -past * u(rng), 0},
                  vec3{along + len / 2, depth, 0}};
-        const bool exact = env.contains_exact(t[0], t[1], t[2]);
-        const auto v = env.fast_verdict(t[0], t[1], t[2]);
-        if (v != envelope::verdict::unknown) REQUIRE((v == envelope::verdict::inside) == exact);
-        ++count[int(v)], inside += exact;
+        tally.add(env, t);
     }
-    CHECK(inside > 100);
-    CHECK(inside < 550);
-    CHECK(count[int(envelope::verdict::inside)] >= inside * 9 / 10);
-    CHECK(count[int(envelope::verdict::outside)] > 20);
+    CHECK(tally.inside > 100);
+    CHECK(tally.inside < 550);
+    CHECK(tally.decided(envelope::verdict::inside) >= tally.inside * 9 / 10);
+    CHECK(tally.decided(envelope::verdict::outside) > 20);
 }
 
 #endif // IDAS_HAS_CGAL
