@@ -521,6 +521,21 @@ private:
     };
     using point2 = std::array<double, 2>;
 
+    // The part of convex polygon `in` (n corners) where `side`, affine along its edges, is
+    // not negative: corners kept, crossings interpolated. Returns the corner count of `out`.
+    static int clip(const vec3* in, int n, const double* side, vec3* out) {
+        int nn = 0;
+        for (int m = 0; m < n; ++m) {
+            const int q = m + 1 < n ? m + 1 : 0;
+            if (side[m] >= 0) out[nn++] = in[m];
+            if ((side[m] >= 0) != (side[q] >= 0)) {
+                const double w = std::clamp(side[m] / (side[m] - side[q]), 0.0, 1.0);
+                out[nn++] = in[m] + (in[q] - in[m]) * w;
+            }
+        }
+        return nn;
+    }
+
     // 2D cross product (b - a) x (c - a), floating point.
     static double cross2(const point2& a, const point2& b, const point2& c) {
         return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
@@ -681,17 +696,9 @@ private:
                         inner = inner && side[m] <= 2 * t;
                     }
                     if (!inner || !parts || parts->n == max_parts) return fail();
-                    vec3 B[4];
-                    int nb = 0;
                     const vec3 C[3] = {a, b, c};
-                    for (int m = 0; m < 3; ++m) {
-                        const int q = (m + 1) % 3;
-                        if (side[m] >= 0) B[nb++] = C[m];
-                        if ((side[m] >= 0) != (side[q] >= 0)) {
-                            const double w = std::clamp(side[m] / (side[m] - side[q]), 0.0, 1.0);
-                            B[nb++] = C[m] + (C[q] - C[m]) * w;
-                        }
-                    }
+                    vec3 B[4];
+                    const int nb = clip(C, 3, side, B);
                     if (nb >= 3)
                         parts->add(B, nb, -1);
                     else if (nb > 0)
@@ -725,17 +732,8 @@ private:
                 double side[9];
                 for (int m = 0; m < np; ++m)
                     side[m] = sigma * cross2(u, v, point2{P[m][i], P[m][j]}) + t;
-                int nn = 0;
-                for (int m = 0; m < np; ++m) {
-                    const int q = m + 1 < np ? m + 1 : 0;
-                    if (side[m] >= 0) P2[nn++] = P[m];
-                    if ((side[m] >= 0) != (side[q] >= 0)) {
-                        const double w = std::clamp(side[m] / (side[m] - side[q]), 0.0, 1.0);
-                        P2[nn++] = P[m] + (P[q] - P[m]) * w;
-                    }
-                }
-                np = nn;
-                std::copy(P2, P2 + nn, P);
+                np = clip(P, np, side, P2);
+                std::copy(P2, P2 + np, P);
             }
             int failed = -1;
             for (int m = 0; m < np && failed < 0; ++m)
