@@ -478,6 +478,31 @@ TEST_CASE("tetmesh: closed inputs, inside volume equals the enclosed volume") {
     }
 }
 
+namespace {
+
+/// The inside's boundary faces by their definition: the faces of inside tets that no other
+/// inside tet has, in the order of their sorted vertices (as boundary_of lists them).
+std::vector<tri_indices> boundary_by_count(const std::vector<tet_indices>& T,
+                                           const std::vector<std::uint8_t>& in) {
+    std::map<tri_indices, std::pair<int, tri_indices>> seen;
+    for (std::size_t t = 0; t < T.size(); ++t) {
+        if (!in[t]) continue;
+        for (std::uint8_t lf = 0; lf < 4; ++lf) {
+            const auto f = tet_local::face_vertices[lf];
+            tri_indices face{T[t][f[0]], T[t][f[1]], T[t][f[2]]}, key = face;
+            std::sort(key.begin(), key.end());
+            auto& [count, kept] = seen[key];
+            ++count, kept = face;
+        }
+    }
+    std::vector<tri_indices> out;
+    for (const auto& [key, counted] : seen)
+        if (counted.first == 1) out.push_back(counted.second);
+    return out;
+}
+
+} // namespace
+
 TEST_CASE("tetmesh: non-manifold, inconsistently oriented 37989_sf and open bunny") {
     for (const char* name : {"37989_sf.obj", "bunny.off"}) {
         CAPTURE(name);
@@ -495,10 +520,16 @@ TEST_CASE("tetmesh: non-manifold, inconsistently oriented 37989_sf and open bunn
         auto T = r.mesh.tets;
         auto in = r.inside;
         const auto before = tetmesh::detail::boundary_of(V.size(), T, in);
-        const std::size_t added = tetmesh::detail::close_boundary(V, T, in, true);
+        CHECK(before.faces == boundary_by_count(T, in));
+        // Each face's neighbour, found once before the rounds, still tells the boundary
+        // after vertices were copied and tets filled in (what close_boundary relies on).
+        const auto across = tetmesh::detail::face_neighbours(T);
+        const std::size_t added = tetmesh::detail::close_boundary(V, T, in, true, across);
         const auto after = tetmesh::detail::boundary_of(V.size(), T, in);
         CHECK(after.non_manifold_edges == 0);
         CHECK(after.bad_vertices.empty());
+        CHECK(after.faces == boundary_by_count(T, in));
+        CHECK(tetmesh::detail::boundary_of(V.size(), T, in, across).faces == after.faces);
         if (std::string(name) == "37989_sf.obj") {
             CHECK(before.non_manifold_edges > 100);
             CHECK(added < r.stats.inside_tets / 50);
@@ -554,8 +585,10 @@ TEST_CASE("tetmesh: solids touching along an edge are parted by copies of its ve
         const auto before = tetmesh::detail::boundary_of(b.V.size(), b.T, in);
         CHECK(before.non_manifold_edges == 1);
         const std::size_t vertices = b.V.size();
-        const std::size_t added = tetmesh::detail::close_boundary(b.V, b.T, in, split);
-        const auto after = tetmesh::detail::boundary_of(b.V.size(), b.T, in);
+        const auto across = tetmesh::detail::face_neighbours(b.T);
+        const std::size_t added = tetmesh::detail::close_boundary(b.V, b.T, in, split, across);
+        const auto after = tetmesh::detail::boundary_of(b.V.size(), b.T, in, across);
+        CHECK(after.faces == boundary_by_count(b.T, in));
         CHECK(after.non_manifold_edges == 0);
         CHECK(after.bad_vertices.empty());
         if (split) {

@@ -463,8 +463,41 @@ void for_each_run(const Vector& v, Run&& run, Same same = {}) {
     }
 }
 
+/// For each face (tet t, local face lf) of a tet mesh, 4 t + lf of the face across it, or
+/// invalid_index on the hull: found once, by sorting every face.
+inline std::vector<index_t> face_neighbours(const std::vector<tet_indices>& T) {
+    struct rec {
+        tri_indices key;
+        index_t face; // 4 t + lf
+    };
+    std::vector<rec> faces;
+    faces.reserve(4 * T.size());
+    for (std::size_t t = 0; t < T.size(); ++t)
+        for (std::uint8_t lf = 0; lf < 4; ++lf) {
+            const auto f = tet_local::face_vertices[lf];
+            faces.push_back({algorithms::detail::sorted_triple(T[t][f[0]], T[t][f[1]], T[t][f[2]]),
+                             index_t(4 * t + lf)});
+        }
+    std::sort(faces.begin(), faces.end(), [](const rec& a, const rec& b) { return a.key < b.key; });
+    std::vector<index_t> across(faces.size(), invalid_index);
+    for (std::size_t i = 0; i + 1 < faces.size(); ++i)
+        if (faces[i].key == faces[i + 1].key)
+            across[faces[i].face] = faces[i + 1].face, across[faces[i + 1].face] = faces[i].face;
+    return across;
+}
+
+/// The inside's boundary, given each face's neighbour in a mesh whose tets have since only
+/// had vertices replaced by copies or copies put back (close_boundary): two tets share a
+/// face now only where they did then, so a face of an inside tet is on the boundary unless
+/// the tet across it is inside and still has the same three vertices. One sort of every
+/// face per round of close_boundary was most of its time on soups of shards.
 inline inside_boundary boundary_of(std::size_t n_vertices, const std::vector<tet_indices>& T,
-                                   const std::vector<std::uint8_t>& in) {
+                                   const std::vector<std::uint8_t>& in,
+                                   const std::vector<index_t>& across) {
+    auto face_of = [&](std::size_t t, std::uint8_t lf) {
+        const auto f = tet_local::face_vertices[lf];
+        return tri_indices{T[t][f[0]], T[t][f[1]], T[t][f[2]]};
+    };
     struct rec {
         tri_indices key;
         tri_indices face;
@@ -473,20 +506,22 @@ inline inside_boundary boundary_of(std::size_t n_vertices, const std::vector<tet
     for (std::size_t t = 0; t < T.size(); ++t) {
         if (!in[t]) continue;
         for (std::uint8_t lf = 0; lf < 4; ++lf) {
-            const auto f = tet_local::face_vertices[lf];
             // Outward: tet_mesh's local faces are stored outward-facing for positive tets.
-            const tri_indices face{T[t][f[0]], T[t][f[1]], T[t][f[2]]};
-            faces.push_back({algorithms::detail::sorted_triple(face[0], face[1], face[2]), face});
+            const tri_indices face = face_of(t, lf);
+            const tri_indices key = algorithms::detail::sorted_triple(face[0], face[1], face[2]);
+            const index_t other = across[4 * t + lf];
+            if (other != invalid_index && in[other / 4]) {
+                const tri_indices o = face_of(other / 4, std::uint8_t(other % 4));
+                if (algorithms::detail::sorted_triple(o[0], o[1], o[2]) == key) continue;
+            }
+            faces.push_back({key, face});
         }
     }
+    // In the order of their vertices, as a sort of every face gave them.
     std::sort(faces.begin(), faces.end(), [](const rec& a, const rec& b) { return a.key < b.key; });
     inside_boundary out;
-    for_each_run(
-        faces,
-        [&](const rec& r, std::size_t count) {
-            if (count == 1) out.faces.push_back(r.face);
-        },
-        [](const rec& a, const rec& b) { return a.key == b.key; });
+    out.faces.reserve(faces.size());
+    for (const rec& r : faces) out.faces.push_back(r.face);
     // Edges: a closed 2-manifold has every edge in exactly two boundary faces.
     std::vector<std::pair<index_t, index_t>> edges;
     for (const auto& f : out.faces)
@@ -538,6 +573,13 @@ inline inside_boundary boundary_of(std::size_t n_vertices, const std::vector<tet
         if (!(at == start && steps == n)) out.bad_vertices.push_back(index_t(v));
     }
     return out;
+}
+
+/// Boundary faces of the tets with `in` set, with counts of the boundary's non-manifold
+/// edges and vertices.
+inline inside_boundary boundary_of(std::size_t n_vertices, const std::vector<tet_indices>& T,
+                                   const std::vector<std::uint8_t>& in) {
+    return boundary_of(n_vertices, T, in, face_neighbours(T));
 }
 
 /// Groups of the tets `in_group` of v's star that share faces through v (components of
@@ -630,8 +672,10 @@ inline bool group_is_disk(index_t v, std::span<const index_t> star,
 ///    copies of its star's vertices go back into their originals, which are not parted
 ///    again (the filling steps close them).
 /// Returns how many tets were made inside.
+/// `across`: face_neighbours(T) as T is on entry.
 inline std::size_t close_boundary(std::vector<vec3>& V, std::vector<tet_indices>& T,
-                                  std::vector<std::uint8_t>& in, bool may_split_vertices) {
+                                  std::vector<std::uint8_t>& in, bool may_split_vertices,
+                                  const std::vector<index_t>& across) {
     std::size_t added = 0;
     std::vector<int> group;
     const std::size_t originals = V.size();
@@ -639,7 +683,7 @@ inline std::size_t close_boundary(std::vector<vec3>& V, std::vector<tet_indices>
     auto original = [&](index_t x) { return x < originals ? x : copied_from[x - originals]; };
     std::vector<std::uint8_t> merged(originals, 0); // copies went back: parted no more
     for (;;) {
-        const inside_boundary b = boundary_of(V.size(), T, in);
+        const inside_boundary b = boundary_of(V.size(), T, in, across);
         std::vector<index_t> bad = b.bad_edge_vertices;
         bad.insert(bad.end(), b.bad_vertices.begin(), b.bad_vertices.end());
         std::sort(bad.begin(), bad.end());
@@ -699,6 +743,11 @@ inline std::size_t close_boundary(std::vector<vec3>& V, std::vector<tet_indices>
                 if (x >= originals && merged[original(x)]) x = original(x), changed = true;
         if (!changed) return added; // cannot happen; no endless loop either way
     }
+}
+
+inline std::size_t close_boundary(std::vector<vec3>& V, std::vector<tet_indices>& T,
+                                  std::vector<std::uint8_t>& in, bool may_split_vertices) {
+    return close_boundary(V, T, in, may_split_vertices, face_neighbours(T));
 }
 
 } // namespace detail
@@ -783,8 +832,9 @@ volume_mesh mesh_volume(const std::vector<vec3>& vertices, const std::vector<tri
     if (qr.inside_tets == 0)
         throw input_error(source + ": the input encloses no volume (no tet has a winding "
                                    "number above 1/2)");
-    qr.added_for_manifold = detail::close_boundary(V, T, out.inside, !q.keep_outside);
-    const detail::inside_boundary b = detail::boundary_of(V.size(), T, out.inside);
+    const std::vector<index_t> across = detail::face_neighbours(T); // for both
+    qr.added_for_manifold = detail::close_boundary(V, T, out.inside, !q.keep_outside, across);
+    const detail::inside_boundary b = detail::boundary_of(V.size(), T, out.inside, across);
     qr.boundary_faces = b.faces.size();
     qr.non_manifold_edges = b.non_manifold_edges;
     qr.non_manifold_vertices = b.bad_vertices.size();
