@@ -524,8 +524,10 @@ TEST_CASE("tetmesh: non-manifold, inconsistently oriented 37989_sf and open bunn
         // Each face's neighbour, found once before the rounds, still tells the boundary
         // after vertices were copied and tets filled in (what close_boundary relies on).
         const auto across = tetmesh::detail::face_neighbours(T);
-        const std::size_t added = tetmesh::detail::close_boundary(V, T, in, true, across);
+        tetmesh::detail::inside_boundary last;
+        const std::size_t added = tetmesh::detail::close_boundary(V, T, in, true, &last);
         const auto after = tetmesh::detail::boundary_of(V.size(), T, in);
+        CHECK(last.faces == after.faces);
         CHECK(after.non_manifold_edges == 0);
         CHECK(after.bad_vertices.empty());
         CHECK(after.faces == boundary_by_count(T, in));
@@ -586,7 +588,7 @@ TEST_CASE("tetmesh: solids touching along an edge are parted by copies of its ve
         CHECK(before.non_manifold_edges == 1);
         const std::size_t vertices = b.V.size();
         const auto across = tetmesh::detail::face_neighbours(b.T);
-        const std::size_t added = tetmesh::detail::close_boundary(b.V, b.T, in, split, across);
+        const std::size_t added = tetmesh::detail::close_boundary(b.V, b.T, in, split);
         const auto after = tetmesh::detail::boundary_of(b.V.size(), b.T, in, across);
         CHECK(after.faces == boundary_by_count(b.T, in));
         CHECK(after.non_manifold_edges == 0);

@@ -486,42 +486,29 @@ inline std::vector<index_t> face_neighbours(const std::vector<tet_indices>& T) {
     return across;
 }
 
-/// The inside's boundary, given each face's neighbour in a mesh whose tets have since only
-/// had vertices replaced by copies or copies put back (close_boundary): two tets share a
-/// face now only where they did then, so a face of an inside tet is on the boundary unless
-/// the tet across it is inside and still has the same three vertices. One sort of every
-/// face per round of close_boundary was most of its time on soups of shards.
-inline inside_boundary boundary_of(std::size_t n_vertices, const std::vector<tet_indices>& T,
-                                   const std::vector<std::uint8_t>& in,
-                                   const std::vector<index_t>& across) {
-    auto face_of = [&](std::size_t t, std::uint8_t lf) {
-        const auto f = tet_local::face_vertices[lf];
-        return tri_indices{T[t][f[0]], T[t][f[1]], T[t][f[2]]};
-    };
-    struct rec {
-        tri_indices key;
-        tri_indices face;
-    };
-    std::vector<rec> faces;
+/// A face of an inside tet: its vertices sorted, and as the tet has them (outward:
+/// tet_mesh's local faces are stored outward-facing for positive tets).
+struct inside_face {
+    tri_indices key;
+    tri_indices face;
+};
+/// Calls fn(t, lf, face) for every face of every tet with `in` set.
+template <class Fn>
+void for_each_inside_face(const std::vector<tet_indices>& T, const std::vector<std::uint8_t>& in,
+                          Fn&& fn) {
     for (std::size_t t = 0; t < T.size(); ++t) {
         if (!in[t]) continue;
         for (std::uint8_t lf = 0; lf < 4; ++lf) {
-            // Outward: tet_mesh's local faces are stored outward-facing for positive tets.
-            const tri_indices face = face_of(t, lf);
-            const tri_indices key = algorithms::detail::sorted_triple(face[0], face[1], face[2]);
-            const index_t other = across[4 * t + lf];
-            if (other != invalid_index && in[other / 4]) {
-                const tri_indices o = face_of(other / 4, std::uint8_t(other % 4));
-                if (algorithms::detail::sorted_triple(o[0], o[1], o[2]) == key) continue;
-            }
-            faces.push_back({key, face});
+            const auto f = tet_local::face_vertices[lf];
+            const tri_indices face{T[t][f[0]], T[t][f[1]], T[t][f[2]]};
+            fn(t, lf,
+               inside_face{algorithms::detail::sorted_triple(face[0], face[1], face[2]), face});
         }
     }
-    // In the order of their vertices, as a sort of every face gave them.
-    std::sort(faces.begin(), faces.end(), [](const rec& a, const rec& b) { return a.key < b.key; });
-    inside_boundary out;
-    out.faces.reserve(faces.size());
-    for (const rec& r : faces) out.faces.push_back(r.face);
+}
+
+/// Counts the non-manifold edges and vertices of the boundary faces in `out`.
+inline void check_boundary(std::size_t n_vertices, inside_boundary& out) {
     // Edges: a closed 2-manifold has every edge in exactly two boundary faces.
     std::vector<std::pair<index_t, index_t>> edges;
     for (const auto& f : out.faces)
@@ -572,14 +559,55 @@ inline inside_boundary boundary_of(std::size_t n_vertices, const std::vector<tet
         }
         if (!(at == start && steps == n)) out.bad_vertices.push_back(index_t(v));
     }
+}
+
+/// The inside's boundary, given each face's neighbour in a mesh whose tets have since only
+/// had vertices replaced by copies or copies put back (close_boundary): two tets share a
+/// face now only where they did then, so a face of an inside tet is on the boundary unless
+/// the tet across it is inside and still has the same three vertices. One sort of every
+/// face per round of close_boundary was most of its time on soups of shards.
+inline inside_boundary boundary_of(std::size_t n_vertices, const std::vector<tet_indices>& T,
+                                   const std::vector<std::uint8_t>& in,
+                                   const std::vector<index_t>& across) {
+    std::vector<inside_face> faces;
+    for_each_inside_face(T, in, [&](std::size_t t, std::uint8_t lf, const inside_face& x) {
+        const index_t other = across[4 * t + lf];
+        if (other != invalid_index && in[other / 4]) {
+            const auto f = tet_local::face_vertices[other % 4];
+            const tet_indices& o = T[other / 4];
+            if (algorithms::detail::sorted_triple(o[f[0]], o[f[1]], o[f[2]]) == x.key) return;
+        }
+        faces.push_back(x);
+    });
+    // In the order of their vertices, as a sort of every face gave them.
+    std::sort(faces.begin(), faces.end(),
+              [](const inside_face& a, const inside_face& b) { return a.key < b.key; });
+    inside_boundary out;
+    out.faces.reserve(faces.size());
+    for (const inside_face& x : faces) out.faces.push_back(x.face);
+    check_boundary(n_vertices, out);
     return out;
 }
 
 /// Boundary faces of the tets with `in` set, with counts of the boundary's non-manifold
-/// edges and vertices.
+/// edges and vertices: the faces of inside tets that no other inside tet has, found by
+/// sorting them.
 inline inside_boundary boundary_of(std::size_t n_vertices, const std::vector<tet_indices>& T,
                                    const std::vector<std::uint8_t>& in) {
-    return boundary_of(n_vertices, T, in, face_neighbours(T));
+    std::vector<inside_face> faces;
+    for_each_inside_face(
+        T, in, [&](std::size_t, std::uint8_t, const inside_face& x) { faces.push_back(x); });
+    std::sort(faces.begin(), faces.end(),
+              [](const inside_face& a, const inside_face& b) { return a.key < b.key; });
+    inside_boundary out;
+    for_each_run(
+        faces,
+        [&](const inside_face& x, std::size_t count) {
+            if (count == 1) out.faces.push_back(x.face);
+        },
+        [](const inside_face& a, const inside_face& b) { return a.key == b.key; });
+    check_boundary(n_vertices, out);
+    return out;
 }
 
 /// Groups of the tets `in_group` of v's star that share faces through v (components of
@@ -672,23 +700,31 @@ inline bool group_is_disk(index_t v, std::span<const index_t> star,
 ///    copies of its star's vertices go back into their originals, which are not parted
 ///    again (the filling steps close them).
 /// Returns how many tets were made inside.
-/// `across`: face_neighbours(T) as T is on entry.
+/// `last`, when given, receives the boundary the last round found: the inside's boundary
+/// on return. The first round sorts the inside's faces; from the second on, each face's
+/// neighbour (face_neighbours, found once) tells the boundary without a sort of them all.
 inline std::size_t close_boundary(std::vector<vec3>& V, std::vector<tet_indices>& T,
                                   std::vector<std::uint8_t>& in, bool may_split_vertices,
-                                  const std::vector<index_t>& across) {
+                                  inside_boundary* last = nullptr) {
     std::size_t added = 0;
     std::vector<int> group;
     const std::size_t originals = V.size();
     std::vector<index_t> copied_from; // of each copy, appended to V
     auto original = [&](index_t x) { return x < originals ? x : copied_from[x - originals]; };
     std::vector<std::uint8_t> merged(originals, 0); // copies went back: parted no more
+    std::vector<index_t> across;                    // from the second round on
     for (;;) {
-        const inside_boundary b = boundary_of(V.size(), T, in, across);
+        inside_boundary b =
+            across.empty() ? boundary_of(V.size(), T, in) : boundary_of(V.size(), T, in, across);
         std::vector<index_t> bad = b.bad_edge_vertices;
         bad.insert(bad.end(), b.bad_vertices.begin(), b.bad_vertices.end());
         std::sort(bad.begin(), bad.end());
         bad.erase(std::unique(bad.begin(), bad.end()), bad.end());
-        if (bad.empty()) return added;
+        if (bad.empty()) {
+            if (last) *last = std::move(b);
+            return added;
+        }
+        if (across.empty()) across = face_neighbours(T);
         const auto [first, star] = insertion::detail::vertex_stars(V.size(), T);
         auto star_of = [&](index_t v) {
             return std::span<const index_t>(star.data() + first[v], first[v + 1] - first[v]);
@@ -741,13 +777,11 @@ inline std::size_t close_boundary(std::vector<vec3>& V, std::vector<tet_indices>
         for (auto& t : T)
             for (index_t& x : t)
                 if (x >= originals && merged[original(x)]) x = original(x), changed = true;
-        if (!changed) return added; // cannot happen; no endless loop either way
+        if (!changed) { // cannot happen; no endless loop either way
+            if (last) *last = boundary_of(V.size(), T, in);
+            return added;
+        }
     }
-}
-
-inline std::size_t close_boundary(std::vector<vec3>& V, std::vector<tet_indices>& T,
-                                  std::vector<std::uint8_t>& in, bool may_split_vertices) {
-    return close_boundary(V, T, in, may_split_vertices, face_neighbours(T));
 }
 
 } // namespace detail
@@ -832,9 +866,8 @@ volume_mesh mesh_volume(const std::vector<vec3>& vertices, const std::vector<tri
     if (qr.inside_tets == 0)
         throw input_error(source + ": the input encloses no volume (no tet has a winding "
                                    "number above 1/2)");
-    const std::vector<index_t> across = detail::face_neighbours(T); // for both
-    qr.added_for_manifold = detail::close_boundary(V, T, out.inside, !q.keep_outside, across);
-    const detail::inside_boundary b = detail::boundary_of(V.size(), T, out.inside, across);
+    detail::inside_boundary b;
+    qr.added_for_manifold = detail::close_boundary(V, T, out.inside, !q.keep_outside, &b);
     qr.boundary_faces = b.faces.size();
     qr.non_manifold_edges = b.non_manifold_edges;
     qr.non_manifold_vertices = b.bad_vertices.size();
